@@ -1,0 +1,33 @@
+"""cabinbench: complete coverage path planning benchmark for cleaning robots in airline cabins.
+
+Importing the package registers the Gymnasium ids: one per built-in layout
+(``CabinBench/A320Cell-v0`` ...) and the generic ``CabinBench/Coverage-v0`` that takes
+``layout=`` (a name or a YAML path).
+"""
+
+import gymnasium
+
+from .layout import Layout, LayoutError, available_layouts, builtin_layout_dir, load_layout
+
+__version__ = "0.1.0"
+
+ENTRY_POINT = "cabinbench.envs.coverage_env:CoverageEnv"
+
+
+def gym_id(layout_name: str) -> str:
+    """``a320_cell`` → ``CabinBench/A320Cell-v0``."""
+    return "CabinBench/" + "".join(part[:1].upper() + part[1:] for part in layout_name.split("_")) + "-v0"
+
+
+def _register() -> None:
+    builtin = sorted(path.stem for path in builtin_layout_dir().glob("*.yaml"))
+    for name in builtin:
+        if gym_id(name) not in gymnasium.registry:
+            gymnasium.register(gym_id(name), entry_point=ENTRY_POINT, kwargs={"layout": name})
+    if "CabinBench/Coverage-v0" not in gymnasium.registry:
+        gymnasium.register("CabinBench/Coverage-v0", entry_point=ENTRY_POINT)
+
+
+_register()
+
+__all__ = ["Layout", "LayoutError", "available_layouts", "gym_id", "load_layout"]

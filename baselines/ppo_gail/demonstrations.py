@@ -132,7 +132,10 @@ def _load_file(path: str | os.PathLike, observation_dim: int, action_dim: int) -
             f"{path}: 'observation_config' must be a 0-d string array, got dtype {config_array.dtype} "
             f"with shape {config_array.shape}."
         )
-    config = _parse_config(str(config_array.item()), source=f"{path}: 'observation_config'")
+    config_text = config_array.item()
+    if isinstance(config_text, bytes):
+        config_text = config_text.decode("utf-8")
+    config = _parse_config(config_text, source=f"{path}: 'observation_config'")
     return observations.astype(np.float32), actions.astype(np.float32), config
 
 

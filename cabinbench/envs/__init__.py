@@ -1,0 +1,1 @@
+"""The envs: single-robot Gymnasium (:mod:`.coverage_env`)."""

@@ -1,0 +1,122 @@
+"""Single-robot coverage env (Gymnasium).
+
+A disc robot cleans an airline-cabin layout, seeing only its own lidar and velocity (seed §4.3.2:
+global coordinates do not generalise across cabins).
+
+**Action**: ``Box(-1, 1, (2,), float32)`` = (linear, angular). Linear × ``max_speed`` is the
+forward speed (m/s, negative reverses); angular × ``max_turn_rate`` is the turn rate (rad/s,
+counter-clockwise). Out-of-range values are clipped to [-1, 1]; NaN or infinite values raise
+``ValueError`` (a silent zero would hide a diverged policy).
+
+**Observation**: ``Box(float32, (6 * n_rays + 2,))``. For each lidar ray (evenly spread over the
+field of view, starting behind the robot and turning counter-clockwise): the hit distance divided
+by the range (1 when nothing is hit), then a one-hot of what was hit, in the order
+``obstacle, bound, goal, exit, robot`` (all zero when nothing is). Last come the achieved forward
+speed / ``max_speed`` and turn rate / ``max_turn_rate``. Bounds are shown only while closed,
+goal markers only while unreached (in ``sequential``: only those of the current cell), exits only
+while their passage is open.
+
+**Reward**: the preset named by ``reward`` (:mod:`cabinbench.rewards`): ``paper`` (seed Tables
+4.4/4.5) or ``coverage`` (dense, per newly covered area).
+
+**Episode end**: terminated when the layout's success criterion is met (``sequential``: every
+cell cleared; ``open``: coverage ≥ the layout's ``success_coverage``), or on a bound contact if
+``terminate_on_bound``; truncated after ``max_steps`` (default: the layout's). Each step is
+0.1 simulated seconds.
+
+**Info**: the running metrics (``coverage``, ``path_length``, ``time``, ``collisions``,
+``cells_cleared`` ...) and ``pose`` = (x, y, heading) for planners (not for learners: it is not
+part of the observation). The last step's info carries ``episode_record``, one value per metric
+of :mod:`cabinbench.metrics`.
+
+**Arguments**: ``layout`` (registered name, YAML path or a :class:`~cabinbench.layout.Layout`),
+``protocol`` (``"sequential"`` or ``"open"``), ``reward``, ``n_rays``, ``lidar_range``,
+``field_of_view``, ``lidar_noise`` (m, Gaussian), ``max_steps``, ``terminate_on_bound``,
+``render_mode`` (``"rgb_array"`` or ``"human"``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+
+from ..layout import Layout, load_layout
+from ..lidar import LidarConfig
+from ..metrics import EpisodeTracker
+from ..render import HumanViewer, draw_frame
+from ..rewards import REWARD_PRESETS, reward
+from ..world import World
+
+
+def checked_action(action, size: int = 2) -> np.ndarray:
+    """The documented action policy: clip to [-1, 1]; refuse NaN and infinity."""
+    action = np.asarray(action, dtype=np.float64).reshape(-1, size)
+    if not np.isfinite(action).all():
+        raise ValueError(f"action contains NaN or infinity: {action.tolist()}")
+    return np.clip(action, -1.0, 1.0)
+
+
+class CoverageEnv(gym.Env):
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
+
+    def __init__(self, layout: str | Layout = "a320_cell", protocol: str = "sequential", reward: str = "paper",
+                 n_rays: int = 64, lidar_range: float = 3.5, field_of_view: float = 2 * math.pi,
+                 lidar_noise: float = 0.0, max_steps: int | None = None, terminate_on_bound: bool = False,
+                 render_mode: str | None = None):
+        self.layout = layout if isinstance(layout, Layout) else load_layout(layout)
+        lidar = LidarConfig(n_rays, lidar_range, field_of_view, lidar_noise)
+        self.world = World(self.layout, 1, protocol, lidar)
+        if reward not in REWARD_PRESETS:
+            raise ValueError(f"unknown reward preset {reward!r}; choose one of {REWARD_PRESETS}")
+        self.reward_preset, self.terminate_on_bound = reward, terminate_on_bound
+        self.max_steps = max_steps or self.layout.max_steps
+        self.render_mode = render_mode
+        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self.world.observation_size,), np.float32)
+        self.action_space = gym.spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self.tracker: EpisodeTracker | None = None
+        self._viewer: HumanViewer | None = None
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        self.world.reset(self.np_random)
+        self.tracker = EpisodeTracker(self.world)
+        if self.render_mode == "human":
+            self.render()
+        return self.world.observe(0), self._info()
+
+    def step(self, action):
+        if self.tracker is None:
+            raise RuntimeError("call reset() before step()")
+        events = self.world.step(checked_action(action))
+        self.tracker.update(events)
+        step_reward = reward(self.reward_preset, events, 0, self.world.coverable_pixels)
+        terminated = events.success or (self.terminate_on_bound and events.robots[0].bound_violations > 0)
+        truncated = not terminated and self.tracker.steps >= self.max_steps
+        info = self._info()
+        if terminated or truncated:
+            info["episode_record"] = self.tracker.record()
+        if self.render_mode == "human":
+            self.render()
+        return self.world.observe(0), step_reward, terminated, truncated, info
+
+    def _info(self) -> dict:
+        return {**self.tracker.running(), "pose": self.world.poses[0].copy()}
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        frame = draw_frame(self.world, self.tracker.trajectory() if self.tracker else None)
+        if self.render_mode == "rgb_array":
+            return frame
+        self._viewer = self._viewer or HumanViewer()
+        self._viewer.show(frame)
+        return None
+
+    def close(self):
+        if self._viewer is not None:
+            self._viewer.close()
+            self._viewer = None
+

@@ -1,0 +1,147 @@
+"""Coverage metrics: the one place where every metric of DESIGN.md is defined.
+
+An :class:`EpisodeTracker` follows a :class:`~cabinbench.world.World` step by step and produces
+one record per episode. Definitions (areas are counted on the 0.05 m raster):
+
+- ``coverage``: covered coverable area / coverable area (coverable = what some reachable robot
+  pose covers, so 1.0 is achievable);
+- ``coverage_free``: covered floor / all floor (the seed's definition, Fig. 5.11);
+- ``path_length``: metres travelled by the robot centre (team: all robots together);
+- ``path_efficiency``: L_LB / path_length with L_LB = (area covered after the start pose) / tool
+  width, the physical lower bound for covering that area; 1 for a straight drive. DESIGN.md
+  writes L_LB with the whole coverable area: the two agree on complete coverage, and ours stays
+  in [0, 1] for an episode that stops early;
+- ``time``: simulated seconds; ``steps``: env steps;
+- ``t90``, ``t95``, ``t99``: simulated seconds to reach that coverage (None if never);
+- ``collisions``: contact events with obstacles; ``robot_collisions``: with other robots;
+- ``bound_violations``: contacts with the bounds of the sequential protocol;
+- ``rotation``: total absolute heading change (radians);
+- ``overlap``: Σ over covered pixels of (passes − 1) / covered pixels, a pass being one entry of
+  the pixel into the footprint;
+- ``cells_cleared``: cells completed (all goal markers reached);
+- ``success``: the layout's success criterion was met within the step limit (sequential: all
+  cells cleared; open: coverage ≥ the layout's ``success_coverage``);
+- ``wall_time``: real seconds the episode took.
+
+Teams (K > 1) add ``n_agents``, ``path_lengths`` (per robot), ``makespan`` (simulated seconds
+until the last robot made its last move) and ``load_balance`` (max / mean path length).
+"""
+
+from __future__ import annotations
+
+import time as clock
+
+import numpy as np
+
+from .layout import RESOLUTION
+from .world import TIME_STEP, StepEvents, World
+
+COVERAGE_THRESHOLDS = (0.90, 0.95, 0.99)
+METRICS = (
+    "coverage", "coverage_free", "path_length", "path_efficiency", "time", "steps", "t90", "t95",
+    "t99", "collisions", "bound_violations", "rotation", "overlap", "cells_cleared", "success",
+    "wall_time",
+)
+TEAM_METRICS = ("n_agents", "robot_collisions", "path_lengths", "makespan", "load_balance")
+
+
+def overlap(pass_count: np.ndarray) -> float:
+    covered = pass_count > 0
+    return float((pass_count[covered].astype(np.int64) - 1).sum() / covered.sum()) if covered.any() else 0.0
+
+
+class EpisodeTracker:
+    """Accumulates one episode's metrics from the world's step events."""
+
+    def __init__(self, world: World):
+        self.world = world
+        self.started = clock.perf_counter()
+        self.steps = 0
+        n = world.n_robots
+        self.path_lengths = np.zeros(n)
+        self.last_move_step = np.zeros(n, dtype=int)
+        self.rotation = 0.0
+        self.collisions = self.robot_collisions = self.bound_violations = 0
+        self.initial_coverable_pixels = world.covered_coverable_pixels
+        self.threshold_times: dict[float, float | None] = {t: None for t in COVERAGE_THRESHOLDS}
+        self.positions = [world.poses[:, :2].copy()]
+        self.coverage_history = [world.coverage]
+        self._note_thresholds()
+
+    def update(self, events: StepEvents) -> None:
+        self.steps += 1
+        for index, robot in enumerate(events.robots):
+            self.path_lengths[index] += robot.distance
+            if robot.distance > 1e-4 or robot.rotation > 1e-4:
+                self.last_move_step[index] = self.steps
+            self.rotation += robot.rotation
+            self.collisions += robot.collisions
+            self.robot_collisions += robot.robot_collisions
+            self.bound_violations += robot.bound_violations
+        self.positions.append(self.world.poses[:, :2].copy())
+        self.coverage_history.append(self.world.coverage)
+        self._note_thresholds()
+
+    def _note_thresholds(self) -> None:
+        for threshold, reached in self.threshold_times.items():
+            if reached is None and self.world.coverage >= threshold:
+                self.threshold_times[threshold] = self.steps * TIME_STEP
+
+    @property
+    def path_length(self) -> float:
+        return float(self.path_lengths.sum())
+
+    def path_efficiency(self) -> float:
+        new_area = (self.world.covered_coverable_pixels - self.initial_coverable_pixels) * RESOLUTION**2
+        lower_bound = new_area / self.world.layout.robot.tool_width
+        return float(min(1.0, lower_bound / self.path_length)) if self.path_length > 0 else 0.0
+
+    def running(self) -> dict:
+        """The metrics that are cheap to report at every step (for ``info``)."""
+        world = self.world
+        return {
+            "coverage": world.coverage,
+            "path_length": self.path_length,
+            "time": self.steps * TIME_STEP,
+            "steps": self.steps,
+            "collisions": self.collisions,
+            "bound_violations": self.bound_violations,
+            "cells_cleared": world.cells_cleared,
+            "current_cell": world.current_cell,
+            "success": world.success,
+        }
+
+    def record(self) -> dict:
+        """The episode record: every metric of DESIGN.md (and the team metrics for K > 1)."""
+        world = self.world
+        floor_pixels = int(world.floor_mask.sum())
+        record = {
+            "coverage": world.coverage,
+            "coverage_free": world.covered_floor_pixels / floor_pixels,
+            "path_length": self.path_length,
+            "path_efficiency": self.path_efficiency(),
+            "time": self.steps * TIME_STEP,
+            "steps": self.steps,
+            **{f"t{round(t * 100)}": reached for t, reached in self.threshold_times.items()},
+            "collisions": self.collisions,
+            "bound_violations": self.bound_violations,
+            "rotation": self.rotation,
+            "overlap": overlap(world.pass_count),
+            "cells_cleared": world.cells_cleared,
+            "success": bool(world.success),
+            "wall_time": clock.perf_counter() - self.started,
+        }
+        if world.n_robots > 1:
+            mean_path = self.path_lengths.mean()
+            record.update(
+                n_agents=world.n_robots,
+                robot_collisions=self.robot_collisions,
+                path_lengths=self.path_lengths.tolist(),
+                makespan=float(self.last_move_step.max() * TIME_STEP),
+                load_balance=float(self.path_lengths.max() / mean_path) if mean_path > 0 else 1.0,
+            )
+        return record
+
+    def trajectory(self) -> np.ndarray:
+        """(steps + 1, K, 2) robot positions."""
+        return np.array(self.positions)

@@ -1,0 +1,364 @@
+"""The physical world shared by every env: pymunk bodies, the lidar, the coverage raster and the
+seed's cell-by-cell protocol (§4.3.2, Fig. 4.15).
+
+Robots are dynamic discs driven by velocity commands; walls and obstacles are static segments;
+contacts are counted as collisions. In the ``sequential`` protocol the current cell is closed by
+*bounds* (solid virtual walls the lidar sees; touching one is a violation). When all goal markers
+of the cell are reached the bound to the next cell opens and *exit* landmarks appear beyond it;
+reaching one moves the team into the next cell, and the bound closes behind once every robot is
+through. In the ``open`` protocol there are no bounds: plain coverage of the whole layout.
+The pymunk space is rebuilt on every reset because Chipmunk caches contact state.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pymunk
+
+from .coverage import stamp_footprint
+from .layout import MARKER_RADIUS, RESOLUTION, Layout
+from .lidar import BOUND, EXIT, GOAL, OBSTACLE, ROBOT, LidarConfig, cast_rays, encode_scan
+
+TIME_STEP = 0.1  # seconds of simulated time per env step
+PHYSICS_SUBSTEPS = 2  # keeps contacts stiff at 0.5 m/s
+PROTOCOLS = ("sequential", "open")
+_ROBOT_TYPE, _WALL_TYPE, _BOUND_TYPE = 1, 2, 3
+
+
+@dataclass
+class RobotEvents:
+    """What happened to one robot during one step."""
+
+    collisions: int = 0
+    robot_collisions: int = 0
+    bound_violations: int = 0
+    goals_reached: int = 0
+    exits_reached: int = 0
+    new_coverable_pixels: int = 0
+    distance: float = 0.0
+    rotation: float = 0.0
+
+
+@dataclass
+class StepEvents:
+    robots: list[RobotEvents]
+    cells_cleared: int = 0  # cells cleared during this step (team)
+    success: bool = False  # the layout's success criterion holds after this step
+
+    @property
+    def team_new_coverable_pixels(self) -> int:
+        return sum(r.new_coverable_pixels for r in self.robots)
+
+
+class World:
+    """K disc robots on one layout. Construct once; call :meth:`reset` before stepping."""
+
+    def __init__(self, layout: Layout, n_robots: int = 1, protocol: str = "sequential",
+                 lidar: LidarConfig = LidarConfig()):
+        if protocol not in PROTOCOLS:
+            raise ValueError(f"protocol must be one of {PROTOCOLS}, got {protocol!r}")
+        self.layout, self.n_robots, self.protocol, self.lidar = layout, n_robots, protocol, lidar
+        self.ray_angles = lidar.ray_angles()
+        self.observation_size = lidar.n_rays * 6 + 2
+        self.start_poses = start_poses(layout, n_robots)
+        robot = layout.robot
+        self._radius = robot.radius
+        passages = layout.passages
+        # Static lidar geometry: walls, then the bounds of every passage (switched on and off).
+        self.bound_slices = []
+        segment_blocks, tags = [layout.walls], [np.full(len(layout.walls), OBSTACLE)]
+        offset = len(layout.walls)
+        for passage in passages:
+            self.bound_slices.append(slice(offset, offset + len(passage.bounds)))
+            segment_blocks.append(passage.bounds)
+            tags.append(np.full(len(passage.bounds), BOUND))
+            offset += len(passage.bounds)
+        self.segments = np.ascontiguousarray(np.concatenate(segment_blocks), dtype=np.float64)
+        self.segment_tags = np.concatenate(tags).astype(np.int8)
+        # Discs: goals, then exits, then robots.
+        goals = layout.goals
+        self.goal_cell = np.concatenate([np.full(len(c.goals), i) for i, c in enumerate(layout.cells)]).astype(int)
+        exits = np.concatenate([p.exits for p in passages]) if passages else np.zeros((0, 2))
+        self.exit_passage = np.concatenate([np.full(len(p.exits), k) for k, p in enumerate(passages)]).astype(int) if passages else np.zeros(0, int)
+        self.n_goals, self.n_exits = len(goals), len(exits)
+        marker_discs = [np.column_stack([points, np.full(len(points), MARKER_RADIUS)]) for points in (goals, exits)]
+        self.circles = np.concatenate([*marker_discs, np.zeros((n_robots, 3))]).astype(np.float64)
+        self.circles[self.n_goals + self.n_exits:, 2] = robot.radius
+        self.circle_tags = np.concatenate([np.full(len(goals), GOAL), np.full(len(exits), EXIT), np.full(n_robots, ROBOT)]).astype(np.int8)
+        # Rasters shared by all robots.
+        self.floor_mask = layout.free_raster
+        self.coverable_mask = layout.coverable_raster
+        self.cell_of = layout.cell_raster
+        self.coverable_by_cell = np.bincount(self.cell_of[self.coverable_mask & (self.cell_of >= 0)], minlength=len(layout.cells))
+        self.coverable_pixels = int(self.coverable_mask.sum())
+        self._distances = np.zeros(lidar.n_rays)
+        self._tags = np.zeros(lidar.n_rays, dtype=np.int8)
+
+    # ------------------------------------------------------------------------------ reset
+    def reset(self, rng: np.random.Generator) -> None:
+        self.rng = rng
+        layout = self.layout
+        self.space = space = pymunk.Space()
+        space.collision_slop = 0.002  # Chipmunk's default (0.1) is meant for pixels, not metres
+        walls = []
+        for x0, y0, x1, y1 in layout.walls:
+            wall = pymunk.Segment(space.static_body, (x0, y0), (x1, y1), 0.0)
+            wall.collision_type, wall.friction = _WALL_TYPE, 0.0
+            walls.append(wall)
+        space.add(*walls)
+        self.bound_shapes = []
+        for passage in layout.passages:
+            shapes = []
+            for x0, y0, x1, y1 in passage.bounds:
+                bound = pymunk.Segment(space.static_body, (x0, y0), (x1, y1), 0.0)
+                bound.collision_type, bound.friction = _BOUND_TYPE, 0.0
+                shapes.append(bound)
+            self.bound_shapes.append(shapes)
+        self.bodies = []
+        for index, (x, y, heading) in enumerate(self.start_poses):
+            body = pymunk.Body(1.0, math.inf)
+            body.position, body.angle = (x, y), heading
+            shape = pymunk.Circle(body, layout.robot.radius)
+            shape.collision_type, shape.friction, shape.elasticity = _ROBOT_TYPE, 0.0, 0.0
+            shape.robot_index = index
+            space.add(body, shape)
+            self.bodies.append(body)
+        space.on_collision(_ROBOT_TYPE, _WALL_TYPE, begin=self._on_wall_contact)
+        space.on_collision(_ROBOT_TYPE, _BOUND_TYPE, begin=self._on_bound_contact)
+        space.on_collision(_ROBOT_TYPE, _ROBOT_TYPE, begin=self._on_robot_contact)
+
+        # Protocol state.
+        cleared = layout.cleared_cells
+        self.cell_cleared = np.zeros(len(layout.cells), dtype=bool)
+        self.cell_cleared[:cleared] = True
+        self.current_cell = max(0, cleared - 1) if cleared else 0
+        self.goal_reached = np.zeros(self.n_goals, dtype=bool)
+        self.goal_reached[self.goal_cell < cleared] = True
+        self.passage_open = np.zeros(len(layout.passages), dtype=bool)
+        self.passage_closing = -1
+        self.success = False
+        if self.protocol == "open":
+            self.passage_open[:] = True
+        else:
+            for passage in range(len(layout.passages)):
+                self._set_bound(passage, solid=True)
+            if cleared:
+                self._set_bound(cleared - 1, solid=False)
+                self.passage_open[cleared - 1] = True
+
+        # Coverage state.
+        self.pass_count = np.zeros(layout.raster_shape, dtype=np.uint16)
+        self.covered_by_cell = np.zeros(len(layout.cells), dtype=np.int64)
+        self.covered_floor_pixels = 0
+        self.covered_coverable_pixels = 0
+        self.previous_positions = np.full((self.n_robots, 2), np.nan)
+        self.velocities = np.zeros((self.n_robots, 2))  # (forward m/s, turn rad/s) commanded and achieved
+        self._pending = [RobotEvents() for _ in range(self.n_robots)]
+        for index in range(self.n_robots):
+            self._pending[index].new_coverable_pixels += self._stamp(index)
+
+    def _set_bound(self, passage: int, solid: bool) -> None:
+        shapes = self.bound_shapes[passage]
+        if solid and shapes[0].space is None:
+            self.space.add(*shapes)
+        elif not solid and shapes[0].space is not None:
+            self.space.remove(*shapes)
+
+    # ------------------------------------------------------------------------ contacts
+    def _on_wall_contact(self, arbiter, space, data):
+        self._pending[self._robot_of(arbiter)].collisions += 1
+
+    def _on_bound_contact(self, arbiter, space, data):
+        self._pending[self._robot_of(arbiter)].bound_violations += 1
+
+    def _on_robot_contact(self, arbiter, space, data):
+        for shape in arbiter.shapes:
+            self._pending[shape.robot_index].robot_collisions += 1
+
+    @staticmethod
+    def _robot_of(arbiter) -> int:
+        shape = arbiter.shapes[0] if arbiter.shapes[0].collision_type == _ROBOT_TYPE else arbiter.shapes[1]
+        return shape.robot_index
+
+    # ---------------------------------------------------------------------------- state
+    @property
+    def poses(self) -> np.ndarray:
+        return np.array([(b.position.x, b.position.y, b.angle) for b in self.bodies])
+
+    @property
+    def coverage(self) -> float:
+        return self.covered_coverable_pixels / self.coverable_pixels
+
+    @property
+    def cells_cleared(self) -> int:
+        return int(self.cell_cleared.sum()) - self.layout.cleared_cells
+
+    # ----------------------------------------------------------------------------- step
+    def step(self, actions: np.ndarray) -> StepEvents:
+        """Advance one env step. ``actions`` is (K, 2) in [-1, 1]: (linear, angular)."""
+        robot = self.layout.robot
+        before = self.poses
+        for body, (linear, angular) in zip(self.bodies, actions):
+            body.angular_velocity = float(angular) * robot.max_turn_rate
+        substep = TIME_STEP / PHYSICS_SUBSTEPS
+        for _ in range(PHYSICS_SUBSTEPS):
+            for body, (linear, angular) in zip(self.bodies, actions):
+                speed = float(linear) * robot.max_speed  # re-aimed each substep: the robot turns while driving
+                body.velocity = (speed * math.cos(body.angle), speed * math.sin(body.angle))
+            self.space.step(substep)
+        after = self.poses
+        events = self._pending
+        self._pending = [RobotEvents() for _ in range(self.n_robots)]
+        for index in range(self.n_robots):
+            moved = after[index, :2] - before[index, :2]
+            turned = _wrap(after[index, 2] - before[index, 2])
+            heading = before[index, 2]
+            events[index].distance = float(np.hypot(*moved))
+            events[index].rotation = abs(turned)
+            self.velocities[index] = (
+                (moved[0] * math.cos(heading) + moved[1] * math.sin(heading)) / TIME_STEP,
+                turned / TIME_STEP,
+            )
+            events[index].new_coverable_pixels += self._stamp(index)
+        step_events = StepEvents(events)
+        self._update_protocol(step_events, after)
+        return step_events
+
+    def _stamp(self, index: int) -> int:
+        body = self.bodies[index]
+        x, y = body.position
+        previous_x, previous_y = self.previous_positions[index]
+        origin_x, origin_y = self.layout.origin
+        new_floor, new_coverable = stamp_footprint(
+            self.pass_count, self.floor_mask, self.coverable_mask, self.cell_of, self.covered_by_cell,
+            x, y, previous_x, previous_y, self._radius, origin_x, origin_y, RESOLUTION)
+        self.previous_positions[index] = (x, y)
+        self.covered_floor_pixels += new_floor
+        self.covered_coverable_pixels += new_coverable
+        return new_coverable
+
+    def _update_protocol(self, events: StepEvents, poses: np.ndarray) -> None:
+        reach = self._radius  # a marker is reached when it is under the robot's footprint
+        positions = poses[:, :2]
+        for goal in np.flatnonzero(~self.goal_reached):
+            if self.protocol == "sequential" and self.goal_cell[goal] != self.current_cell:
+                continue
+            distances = np.hypot(*(positions - self.circles[goal, :2]).T)
+            if distances.min() <= reach:
+                self.goal_reached[goal] = True
+                events.robots[int(distances.argmin())].goals_reached += 1
+        for cell in np.flatnonzero(~self.cell_cleared):
+            if self._cell_done(cell):
+                self.cell_cleared[cell] = True
+                events.cells_cleared += 1
+                if self.protocol == "sequential" and cell < len(self.layout.passages):
+                    self._set_bound(cell, solid=False)
+                    self.passage_open[cell] = True
+        if self.protocol == "sequential":
+            self._advance_through_exits(events, positions, reach)
+            self.success = bool(self.cell_cleared.all())
+        else:
+            self.success = self.coverage >= self.layout.success_coverage
+        events.success = self.success
+
+    def _cell_done(self, cell: int) -> bool:
+        goals = self.goal_cell == cell
+        if goals.any():
+            return bool(self.goal_reached[goals].all())
+        return self.covered_by_cell[cell] >= self.layout.success_coverage * self.coverable_by_cell[cell]
+
+    def _advance_through_exits(self, events: StepEvents, positions: np.ndarray, reach: float) -> None:
+        passage = self.current_cell
+        if passage < len(self.layout.passages) and self.passage_open[passage]:
+            exits = np.flatnonzero(self.exit_passage == passage)
+            for index, position in enumerate(positions):
+                if np.hypot(*(self.circles[self.n_goals + exits, :2] - position).T).min() <= reach:
+                    events.robots[index].exits_reached += 1
+                    self.current_cell += 1
+                    self.passage_open[passage] = False  # exits vanish; the bound closes once all are through
+                    self.passage_closing = passage
+                    break
+        if self.passage_closing >= 0 and self._all_through(self.passage_closing, positions):
+            self._set_bound(self.passage_closing, solid=True)
+            self.passage_closing = -1
+
+    def _all_through(self, passage: int, positions: np.ndarray) -> bool:
+        cells = [self.cell_of[self.layout.to_pixel(x, y)] for x, y in positions]
+        if any(cell != passage + 1 for cell in cells):
+            return False
+        bounds = self.layout.passages[passage].bounds
+        return all(_distance_to_segments(position, bounds) > self._radius + 0.01 for position in positions)
+
+    # ------------------------------------------------------------------------- observe
+    def markers_visible(self) -> tuple[np.ndarray, np.ndarray]:
+        """(goal visible, exit visible) flags for the lidar."""
+        goals = ~self.goal_reached
+        if self.protocol == "sequential":
+            goals &= self.goal_cell == self.current_cell
+            exits = self.passage_open[self.exit_passage]
+        else:
+            exits = np.zeros(self.n_exits, dtype=bool)
+        return goals, exits
+
+    def observe(self, index: int) -> np.ndarray:
+        """Local observation of robot ``index``: per ray [distance / range, one-hot tag] then
+        [forward speed / max_speed, turn rate / max_turn_rate]."""
+        poses = self.poses
+        goals, exits = self.markers_visible()
+        robots = np.ones(self.n_robots, dtype=bool)
+        robots[index] = False
+        self.circles[self.n_goals + self.n_exits:, :2] = poses[:, :2]
+        circle_on = np.concatenate([goals, exits, robots])
+        segment_on = np.ones(len(self.segments), dtype=bool)
+        for passage, bounds in enumerate(self.bound_slices):
+            segment_on[bounds] = self.protocol == "sequential" and self.bound_shapes[passage][0].space is not None
+        x, y, heading = poses[index]
+        cast_rays(x, y, heading, self.ray_angles, self.lidar.max_range, self.segments, self.segment_tags,
+                  segment_on, self.circles, self.circle_tags, circle_on, self._distances, self._tags)
+        if self.lidar.noise > 0:
+            noisy = self._distances + self.rng.normal(0.0, self.lidar.noise, self.lidar.n_rays)
+            np.clip(noisy, 0.0, self.lidar.max_range, out=self._distances)
+        observation = np.empty(self.observation_size, dtype=np.float32)
+        encode_scan(self._distances, self._tags, self.lidar.max_range, observation)
+        robot = self.layout.robot
+        observation[-2] = self.velocities[index, 0] / robot.max_speed
+        observation[-1] = self.velocities[index, 1] / robot.max_turn_rate
+        return observation
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+def _distance_to_segments(point: np.ndarray, segments: np.ndarray) -> float:
+    starts, ends = segments[:, :2], segments[:, 2:]
+    direction = ends - starts
+    length_sq = np.maximum((direction**2).sum(axis=1), 1e-12)
+    t = np.clip(((point - starts) * direction).sum(axis=1) / length_sq, 0.0, 1.0)
+    return float(np.hypot(*(starts + t[:, None] * direction - point).T).min())
+
+
+def start_poses(layout: Layout, n_robots: int) -> np.ndarray:
+    """Distinct valid start poses: the layout's start, then the reachable free spots of the start
+    cell nearest to it, at least a robot diameter plus 5 cm apart (deterministic)."""
+    poses = [layout.start]
+    if n_robots == 1:
+        return np.array(poses)
+    spacing = layout.robot.tool_width + 0.05
+    start_cell = layout.cell_raster[layout.to_pixel(*layout.start[:2])]
+    candidates = np.argwhere(layout.centre_free & (layout.cell_raster == start_cell))
+    xs, ys = layout.pixel_centres()
+    points = np.column_stack([xs[candidates[:, 1]], ys[candidates[:, 0]]])
+    order = np.argsort(np.hypot(*(points - layout.start[:2]).T), kind="stable")
+    for point in points[order]:
+        if all(np.hypot(point[0] - p[0], point[1] - p[1]) >= spacing for p in poses):
+            poses.append((float(point[0]), float(point[1]), layout.start[2]))
+            if len(poses) == n_robots:
+                return np.array(poses)
+    raise ValueError(
+        f"layout '{layout.name}' has room for only {len(poses)} robots in its start cell, "
+        f"{n_robots} were asked for: use fewer agents or a larger layout"
+    )
