@@ -280,7 +280,7 @@ def parse_layout(text: str, source: str = "<string>", default_name: str = "layou
         cells = None
     else:
         boundary, obstacles = _build_polygons(check, spec["polygons"])
-        default_start = None
+        default_start, cells = None, None
     if cells is None:
         cells = check.cells(spec.get("cells"), boundary)
     if "goals" in spec:
@@ -364,10 +364,10 @@ class _Checker:
         points = np.array([self.point(p, f"{field_name}[{i}]") for i, p in enumerate(value)])
         if np.allclose(points[0], points[-1]):
             points = points[:-1]  # a repeated first point closes the ring explicitly
+        if len(points) >= 4 and _self_intersects(points):
+            self.fail(field_name, "the polygon intersects itself", "order the corners around the outline without crossings")
         if len(points) < 3 or abs(_signed_area(points)) < 1e-9:
             self.fail(field_name, "the polygon is not closed (zero area)", "give at least 3 distinct, non-collinear corners")
-        if _self_intersects(points):
-            self.fail(field_name, "the polygon intersects itself", "order the corners around the outline without crossings")
         return points
 
     def robot(self, value) -> RobotSpec:

@@ -305,7 +305,7 @@ class World:
 
     def observe(self, index: int) -> np.ndarray:
         """Local observation of robot ``index``: per ray [distance / range, one-hot tag] then
-        [forward speed / max_speed, turn rate / max_turn_rate]."""
+        [forward speed / max_speed, turn rate / max_turn_rate], clipped to [-1, 1]."""
         poses = self.poses
         goals, exits = self.markers_visible()
         robots = np.ones(self.n_robots, dtype=bool)
@@ -324,8 +324,9 @@ class World:
         observation = np.empty(self.observation_size, dtype=np.float32)
         encode_scan(self._distances, self._tags, self.lidar.max_range, observation)
         robot = self.layout.robot
-        observation[-2] = self.velocities[index, 0] / robot.max_speed
-        observation[-1] = self.velocities[index, 1] / robot.max_turn_rate
+        # contacts can push a robot a little faster than commanded: keep the entries in [-1, 1]
+        observation[-2] = min(1.0, max(-1.0, self.velocities[index, 0] / robot.max_speed))
+        observation[-1] = min(1.0, max(-1.0, self.velocities[index, 1] / robot.max_turn_rate))
         return observation
 
 

@@ -58,6 +58,13 @@ def checked_action(action, size: int = 2) -> np.ndarray:
     return np.clip(action, -1.0, 1.0)
 
 
+def observation_space(size: int) -> gym.spaces.Box:
+    """Ray blocks lie in [0, 1]; the two velocity entries in [-1, 1]."""
+    low = np.zeros(size, dtype=np.float32)
+    low[-2:] = -1.0
+    return gym.spaces.Box(low, np.ones(size, dtype=np.float32), dtype=np.float32)
+
+
 class CoverageEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
 
@@ -73,7 +80,7 @@ class CoverageEnv(gym.Env):
         self.reward_preset, self.terminate_on_bound = reward, terminate_on_bound
         self.max_steps = max_steps or self.layout.max_steps
         self.render_mode = render_mode
-        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self.world.observation_size,), np.float32)
+        self.observation_space = observation_space(self.world.observation_size)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (2,), np.float32)
         self.tracker: EpisodeTracker | None = None
         self._viewer: HumanViewer | None = None

@@ -1,0 +1,720 @@
+"""Complete-coverage path planning on a raster, for a disc-shaped cleaning robot.
+
+The planner is a pipeline of small, replaceable steps (in the spirit of Fields2Cover):
+
+1. ``decompose``: boustrophedon cellular decomposition (Choset, 2000). A slice line (a raster
+   row or column) sweeps across the free space; the free intervals of consecutive slices are
+   matched, and a cell ends wherever the matching is not one-to-one (an interval splits, two
+   merge, one appears or disappears). Optionally a cell also ends where an interval end jumps
+   by more than ``max_jump`` pixels: such a jump hides a pocket that lanes spaced one tool width
+   apart could step over (the legroom between two seat rows is the typical case).
+2. ``swaths``: the sweep lines of one cell. Ordinary cells get lanes along the slice direction,
+   evenly spaced at most one tool width apart, the outermost ones on the outermost valid centre
+   positions. Cells narrower than a tool width but long get one pass along each of their two
+   edges instead.
+3. ``cell_sweeps``: the lanes joined boustrophedon style, each connector following the cell
+   boundary so that the boundary strip between lanes is covered; four variants per cell (two
+   start corners, each in both directions).
+4. ``route``: the order of the cells and the variant of each (greedy nearest neighbour from the
+   start, then 2-opt and a dynamic programme over the variants), with geodesic transit costs.
+   Cells in ``last_cells`` are swept after all the others.
+5. ``astar`` and ``shortcut``: 8-connected grid A* for the transits between cells, simplified
+   to few waypoints by line-of-sight shortcuts checked with an exact supercover walk.
+
+``plan_coverage`` runs the pipeline for both sweep axes and keeps the shorter plan.
+
+Conventions: a raster is indexed ``[row, col] = [iy, ix]`` and pixel (iy, ix) has its centre at
+``origin + ((ix + 0.5) * resolution, (iy + 0.5) * resolution)`` metres. Internally all geometry
+is in pixel coordinates (row, col), where a pixel centre has integer coordinates and the pixel
+covers [row - 0.5, row + 0.5] x [col - 0.5, col + 0.5]. ``centre_free`` marks the pixels where
+the robot centre may be (free space eroded by the robot radius). Every segment of a plan stays
+inside ``centre_free``: lanes lie on free intervals, connectors on staircases of free pixels,
+and every shortcut is checked against the raster.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage, sparse
+from scipy.sparse.csgraph import dijkstra
+from scipy.spatial.distance import cdist
+
+SQRT2 = math.sqrt(2.0)
+
+# Routing costs are geodesic distances, computed by Dijkstra from every cell corner. Searching
+# the whole raster from every corner is what dominates the planning time on long cabins, and the
+# route only needs exact costs between nearby cells, so each search stops at this radius; pairs
+# farther apart are ranked by (radius + straight-line distance).
+ROUTING_SEARCH_RADIUS_M = 4.0
+
+# Douglas-Peucker tolerance (pixels) for boundary-following polylines. Slightly above
+# sqrt(2)/2 so that a 45-degree staircase of single-pixel steps becomes one diagonal segment,
+# while steps of two pixels or more (real corners) are kept.
+BOUNDARY_SIMPLIFY_TOLERANCE_PX = 0.75
+
+
+# --------------------------------------------------------------------------------------------
+# Coordinates
+# --------------------------------------------------------------------------------------------
+
+
+def world_to_pixel(point: Sequence[float], resolution: float, origin: Sequence[float]) -> tuple[int, int]:
+    """(row, col) of the pixel containing world point (x, y)."""
+    return (
+        int(math.floor((point[1] - origin[1]) / resolution)),
+        int(math.floor((point[0] - origin[0]) / resolution)),
+    )
+
+
+def pixels_to_world(pixels: np.ndarray, resolution: float, origin: Sequence[float]) -> np.ndarray:
+    """World (x, y) of pixel coordinates (row, col), shape (N, 2) -> (N, 2)."""
+    pixels = np.asarray(pixels, dtype=float)
+    return np.column_stack(
+        (origin[0] + (pixels[:, 1] + 0.5) * resolution, origin[1] + (pixels[:, 0] + 0.5) * resolution)
+    )
+
+
+def polyline_length(points: np.ndarray) -> float:
+    """Length of a polyline given as an (N, 2) array."""
+    return float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()) if len(points) > 1 else 0.0
+
+
+# --------------------------------------------------------------------------------------------
+# Free space: segment checks, A*, geodesic distances
+# --------------------------------------------------------------------------------------------
+
+
+def crossed_pixels(start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """All pixels (row, col) that the segment start-end passes through or touches.
+
+    Exact supercover: the parameters where the segment crosses pixel borders split it into
+    pieces that each lie inside one pixel. The walk is done twice, with the segment shifted by a
+    tiny amount to either side, so that a segment passing exactly through a pixel corner counts
+    both pixels beside the corner (consistent with A*, which never cuts a corner).
+    """
+    start = np.asarray(start, dtype=float)
+    end = np.asarray(end, dtype=float)
+    delta = end - start
+    length = math.hypot(delta[0], delta[1])
+    if length == 0.0:
+        return np.floor(start + 0.5).astype(int)[None, :]
+    normal = np.array([-delta[1], delta[0]]) / length * 1e-6
+    pixels = []
+    for shift in (normal, -normal):
+        a = start + shift
+        crossings = [np.array([0.0, 1.0])]
+        for axis in (0, 1):
+            if delta[axis] != 0.0:
+                low, high = sorted((a[axis], a[axis] + delta[axis]))
+                borders = np.arange(math.floor(low - 0.5) + 1.5, high, 1.0)
+                crossings.append((borders - a[axis]) / delta[axis])
+        t = np.unique(np.concatenate(crossings))
+        middles = (t[:-1] + t[1:]) / 2.0
+        pixels.append(np.floor(a + middles[:, None] * delta + 0.5).astype(int))
+    return np.unique(np.concatenate(pixels), axis=0)
+
+
+def segment_is_free(free: np.ndarray, start: Sequence[float], end: Sequence[float]) -> bool:
+    """True if every pixel the segment start-end (pixel coordinates) crosses is free."""
+    pixels = crossed_pixels(np.asarray(start), np.asarray(end))
+    rows, cols = pixels[:, 0], pixels[:, 1]
+    inside = (rows >= 0) & (rows < free.shape[0]) & (cols >= 0) & (cols < free.shape[1])
+    return bool(inside.all() and free[rows, cols].all())
+
+
+class FreeSpace:
+    """A centre-free raster prepared for repeated A* searches and geodesic distance queries.
+
+    A* runs in pure Python over a flat list with a one-pixel obstacle border, so that the inner
+    loop needs no bounds checks. Geodesic distances use the same 8-connected graph (diagonal
+    moves only where both side pixels are free) as a sparse matrix for scipy's Dijkstra.
+    """
+
+    def __init__(self, free: np.ndarray):
+        self.free = np.asarray(free, dtype=bool)
+        height, width = self.free.shape
+        self.padded_width = width + 2
+        padded = np.zeros((height + 2, width + 2), dtype=bool)
+        padded[1:-1, 1:-1] = self.free
+        self.free_flat = padded.ravel().tolist()
+        self.node_id = np.full(self.free.shape, -1, dtype=np.int64)
+        self.node_id[self.free] = np.arange(int(self.free.sum()))
+        self.graph = self._build_graph()
+
+    def _build_graph(self) -> sparse.csr_matrix:
+        free, ids = self.free, self.node_id
+        tails, heads, weights = [], [], []
+
+        def add_edges(tail_ids, head_ids, mask, weight):
+            tails.append(tail_ids[mask])
+            heads.append(head_ids[mask])
+            weights.append(np.full(int(mask.sum()), weight))
+
+        add_edges(ids[:, :-1], ids[:, 1:], free[:, :-1] & free[:, 1:], 1.0)
+        add_edges(ids[:-1, :], ids[1:, :], free[:-1, :] & free[1:, :], 1.0)
+        square_free = free[:-1, :-1] & free[1:, 1:] & free[:-1, 1:] & free[1:, :-1]
+        add_edges(ids[:-1, :-1], ids[1:, 1:], square_free, SQRT2)
+        add_edges(ids[:-1, 1:], ids[1:, :-1], square_free, SQRT2)
+        node_count = int(free.sum())
+        return sparse.csr_matrix(
+            (np.concatenate(weights), (np.concatenate(tails), np.concatenate(heads))),
+            shape=(node_count, node_count),
+        )
+
+    def astar(self, start: Sequence[int], goal: Sequence[int]) -> np.ndarray | None:
+        """Shortest 8-connected pixel path from start to goal (inclusive), or None."""
+        width = self.padded_width
+        free = self.free_flat
+        start_node = (start[0] + 1) * width + start[1] + 1
+        goal_node = (goal[0] + 1) * width + goal[1] + 1
+        if not (free[start_node] and free[goal_node]):
+            return None
+        goal_row, goal_col = divmod(goal_node, width)
+        # (offset, step cost, the two side neighbours a diagonal step must not cut between)
+        moves = [(1, 1.0, 0, 0), (-1, 1.0, 0, 0), (width, 1.0, 0, 0), (-width, 1.0, 0, 0)]
+        moves += [(dr * width + dc, SQRT2, dr * width, dc) for dr in (-1, 1) for dc in (-1, 1)]
+        best_cost = {start_node: 0.0}
+        parent = {start_node: start_node}
+        heap = [(0.0, 0.0, start_node)]
+        closed = set()
+        while heap:
+            _, negative_cost, node = heapq.heappop(heap)
+            if node == goal_node:
+                break
+            if node in closed:
+                continue
+            closed.add(node)
+            cost = -negative_cost
+            for offset, step, side_a, side_b in moves:
+                neighbour = node + offset
+                if not free[neighbour] or (side_a and not (free[node + side_a] and free[node + side_b])):
+                    continue
+                new_cost = cost + step
+                if new_cost < best_cost.get(neighbour, math.inf):
+                    best_cost[neighbour] = new_cost
+                    parent[neighbour] = node
+                    row, col = divmod(neighbour, width)
+                    d_row, d_col = abs(row - goal_row), abs(col - goal_col)
+                    octile = d_row + d_col + (SQRT2 - 2.0) * min(d_row, d_col)
+                    # Ties on f go to the larger cost so far, i.e. the node nearer the goal.
+                    heapq.heappush(heap, (new_cost + octile, -new_cost, neighbour))
+        else:
+            return None
+        path = [goal_node]
+        while path[-1] != start_node:
+            path.append(parent[path[-1]])
+        rows, cols = np.divmod(np.array(path[::-1]), width)
+        return np.column_stack((rows - 1, cols - 1))
+
+    def shortcut(self, pixel_path: np.ndarray) -> np.ndarray:
+        """Simplify a pixel path to few waypoints with line-of-sight shortcuts.
+
+        First keep only the pixels where the step direction changes, then, from each kept
+        waypoint, jump to the farthest following one that is in straight line of sight.
+        """
+        if len(pixel_path) <= 2:
+            return pixel_path
+        steps = np.diff(pixel_path, axis=0)
+        turns = np.any(steps[1:] != steps[:-1], axis=1)
+        corners = pixel_path[np.concatenate(([True], turns, [True]))]
+        kept = [0]
+        while kept[-1] < len(corners) - 1:
+            anchor = kept[-1]
+            farthest = anchor + 1
+            while farthest + 1 < len(corners) and segment_is_free(self.free, corners[anchor], corners[farthest + 1]):
+                farthest += 1
+            kept.append(farthest)
+        return corners[kept]
+
+    def transit(self, start: Sequence[int], goal: Sequence[int]) -> np.ndarray:
+        """Few-waypoint collision-free path between two free pixels (A* then shortcuts)."""
+        pixel_path = self.astar(start, goal)
+        if pixel_path is None:
+            raise ValueError(f"no free path from pixel {tuple(start)} to pixel {tuple(goal)}")
+        return self.shortcut(pixel_path)
+
+    def pairwise_distances(self, pixels: np.ndarray) -> np.ndarray:
+        """Geodesic distances (pixels) between free pixels, searched up to the routing radius.
+
+        Pairs beyond the radius get (radius + straight-line distance): larger than every exact
+        distance, and still ordered by how far apart the pixels are.
+        """
+        pixels = np.asarray(pixels, dtype=int)
+        nodes = self.node_id[pixels[:, 0], pixels[:, 1]]
+        unique_nodes, inverse = np.unique(nodes, return_inverse=True)
+        radius = self.search_radius_px
+        distances = dijkstra(self.graph, directed=False, indices=unique_nodes, limit=radius)
+        distances = distances[:, unique_nodes][np.ix_(inverse, inverse)]
+        return np.where(np.isfinite(distances), distances, radius + cdist(pixels, pixels))
+
+    search_radius_px: float = math.inf
+
+
+def astar(centre_free: np.ndarray, start: Sequence[int], goal: Sequence[int]) -> np.ndarray | None:
+    """Shortest 8-connected path (no corner cutting, octile heuristic) between two pixels.
+
+    Returns the (K, 2) array of (row, col) pixels from start to goal inclusive, or None when the
+    goal cannot be reached. Use ``FreeSpace(centre_free).transit`` for the simplified path.
+    """
+    return FreeSpace(centre_free).astar(start, goal)
+
+
+# --------------------------------------------------------------------------------------------
+# 1. Boustrophedon decomposition
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class Cell:
+    """One boustrophedon cell: a run of consecutive slice lines, one free interval on each.
+
+    ``sweep_axis`` is the raster axis along which the slice advances: 0 means the slice lines are
+    rows (line index = row, position along the line = column); 1 means they are columns (line
+    index = column, position = row). ``intervals[k] = (lo, hi)`` is the inclusive range of free
+    positions on line ``first_line + k``.
+    """
+
+    sweep_axis: int
+    first_line: int
+    intervals: np.ndarray = field(repr=False)
+
+    @property
+    def last_line(self) -> int:
+        return self.first_line + len(self.intervals) - 1
+
+    def interval(self, line: int) -> tuple[int, int]:
+        lo, hi = self.intervals[line - self.first_line]
+        return int(lo), int(hi)
+
+    def to_pixels(self, line_positions: np.ndarray) -> np.ndarray:
+        """Convert (line, position) points of this cell to raster (row, col) points."""
+        line_positions = np.asarray(line_positions)
+        return line_positions if self.sweep_axis == 0 else line_positions[:, ::-1]
+
+    def contains(self, row: int, col: int) -> bool:
+        """True if raster pixel (row, col) belongs to this cell."""
+        line, position = (row, col) if self.sweep_axis == 0 else (col, row)
+        if not self.first_line <= line <= self.last_line:
+            return False
+        lo, hi = self.interval(line)
+        return lo <= position <= hi
+
+    @property
+    def area_px(self) -> int:
+        return int((self.intervals[:, 1] - self.intervals[:, 0] + 1).sum())
+
+
+def line_view(centre_free: np.ndarray, sweep_axis: int) -> np.ndarray:
+    """The raster seen with the slice lines as rows (a transposed view for sweep axis 1)."""
+    if sweep_axis not in (0, 1):
+        raise ValueError(f"sweep_axis must be 0 or 1, got {sweep_axis}")
+    return centre_free if sweep_axis == 0 else centre_free.T
+
+
+def free_intervals(lines: np.ndarray) -> list[np.ndarray]:
+    """For each row of a boolean raster, its maximal free runs as an (n, 2) array of (lo, hi)."""
+    padded = np.zeros((lines.shape[0], lines.shape[1] + 2), dtype=np.int8)
+    padded[:, 1:-1] = lines
+    change = np.diff(padded, axis=1)
+    start_lines, starts = np.nonzero(change == 1)
+    _, ends = np.nonzero(change == -1)  # one past the last free pixel of each run
+    runs = np.column_stack((starts, ends - 1))
+    bounds = np.searchsorted(start_lines, np.arange(lines.shape[0] + 1))
+    return [runs[bounds[k] : bounds[k + 1]] for k in range(lines.shape[0])]
+
+
+def decompose(centre_free: np.ndarray, sweep_axis: int, max_jump: int | None = None) -> list[Cell]:
+    """Boustrophedon cellular decomposition of the free pixels.
+
+    Intervals of consecutive lines are connected when they share a position (4-connectivity,
+    the connectivity a robot centre needs to move between them). An interval continues the cell
+    of the previous line's interval only if the two overlap each other and nothing else, and,
+    when ``max_jump`` is given, neither end moves by more than ``max_jump`` pixels. Every other
+    interval opens a new cell. Cells are returned in the order they are opened.
+    """
+    lines = line_view(np.asarray(centre_free, dtype=bool), sweep_axis)
+    cells_first_line: list[int] = []
+    cells_intervals: list[list[np.ndarray]] = []
+    previous = np.zeros((0, 2), dtype=int)
+    previous_cells = np.zeros(0, dtype=int)
+    for line, current in enumerate(free_intervals(lines)):
+        # Intervals are sorted and disjoint, so the overlapping ones form a contiguous range.
+        first_over = np.searchsorted(previous[:, 1], current[:, 0], side="left")
+        last_over = np.searchsorted(previous[:, 0], current[:, 1], side="right") - 1
+        previous_overlap_count = np.zeros(len(previous), dtype=int)
+        for first, last in zip(first_over, last_over):
+            previous_overlap_count[first : last + 1] += 1
+        current_cells = np.empty(len(current), dtype=int)
+        for k, (first, last) in enumerate(zip(first_over, last_over)):
+            continues = first == last and previous_overlap_count[first] == 1
+            if continues and max_jump is not None:
+                continues = bool(np.abs(current[k] - previous[first]).max() <= max_jump)
+            if continues:
+                current_cells[k] = previous_cells[first]
+                cells_intervals[current_cells[k]].append(current[k])
+            else:
+                current_cells[k] = len(cells_first_line)
+                cells_first_line.append(line)
+                cells_intervals.append([current[k]])
+        previous, previous_cells = current, current_cells
+    return [
+        Cell(sweep_axis=sweep_axis, first_line=first_line, intervals=np.array(intervals, dtype=int))
+        for first_line, intervals in zip(cells_first_line, cells_intervals)
+    ]
+
+
+# --------------------------------------------------------------------------------------------
+# 2. Swaths
+# --------------------------------------------------------------------------------------------
+
+
+def max_lane_spacing_px(tool_width: float, resolution: float) -> int:
+    """Largest whole number of pixels not exceeding the tool width (at least one)."""
+    return max(1, int(math.floor(tool_width / resolution + 1e-9)))
+
+
+def is_narrow(cell: Cell, tool_width: float, resolution: float) -> bool:
+    """A cell at most one tool width across and longer than it is wide: swept along its edges."""
+    widths = cell.intervals[:, 1] - cell.intervals[:, 0]
+    length = cell.last_line - cell.first_line
+    return bool(widths.max() <= max_lane_spacing_px(tool_width, resolution) and length > widths.max())
+
+
+def lane_lines(cell: Cell, tool_width: float, resolution: float) -> np.ndarray:
+    """Lines of the lanes of an ordinary cell: evenly spread from the first to the last line.
+
+    With n = ceil(extent / spacing) gaps the lanes are extent / n apart, never more than one tool
+    width (in whole pixels, so rounding cannot push two lanes apart by more than that).
+    """
+    extent = cell.last_line - cell.first_line
+    gaps = math.ceil(extent / max_lane_spacing_px(tool_width, resolution))
+    return np.unique(np.round(np.linspace(cell.first_line, cell.last_line, gaps + 1)).astype(int))
+
+
+def swaths(cell: Cell, tool_width: float, resolution: float) -> list[np.ndarray]:
+    """The sweep lines of a cell as (line, position) polylines, ordered across the cell.
+
+    Ordinary cell: one straight lane per line from ``lane_lines``, from lo to hi of that line's
+    interval. Narrow cell: its lo edge and its hi edge, each a staircase from the first line to
+    the last (one edge only when the cell is a single pixel wide everywhere).
+    """
+    if is_narrow(cell, tool_width, resolution):
+        edges = [boundary_walk(cell, side=0, from_line=cell.first_line, to_line=cell.last_line)]
+        if np.any(cell.intervals[:, 1] > cell.intervals[:, 0]):
+            edges.append(boundary_walk(cell, side=1, from_line=cell.first_line, to_line=cell.last_line))
+        return edges
+    return [np.array([[line, cell.interval(line)[0]], [line, cell.interval(line)[1]]]) for line in lane_lines(cell, tool_width, resolution)]
+
+
+def boundary_walk(cell: Cell, side: int, from_line: int, to_line: int) -> np.ndarray:
+    """Staircase of free (line, position) points along one edge of a cell (side 0: lo, 1: hi).
+
+    Between two lines the step is taken at the inner of the two edge positions, which lies on
+    both intervals, so every segment of the staircase stays on free pixels.
+    """
+    step = 1 if to_line >= from_line else -1
+    lines = np.arange(from_line, to_line + step, step)
+    edge = cell.intervals[lines - cell.first_line, side]
+    inner = np.maximum(edge[:-1], edge[1:]) if side == 0 else np.minimum(edge[:-1], edge[1:])
+    points = [[lines[0], edge[0]]]
+    for k in range(len(lines) - 1):
+        points += [[lines[k], inner[k]], [lines[k + 1], inner[k]]]
+    points.append([lines[-1], edge[-1]])
+    return drop_redundant_points(np.array(points))
+
+
+def drop_redundant_points(points: np.ndarray) -> np.ndarray:
+    """Remove repeated points and the middle points of straight runs from a polyline."""
+    points = points[np.concatenate(([True], np.any(np.diff(points, axis=0) != 0, axis=1)))]
+    if len(points) <= 2:
+        return points
+    incoming = points[1:-1] - points[:-2]
+    outgoing = points[2:] - points[1:-1]
+    cross = incoming[:, 0] * outgoing[:, 1] - incoming[:, 1] * outgoing[:, 0]
+    forward = (incoming * outgoing).sum(axis=1) > 0
+    keep = np.concatenate(([True], ~((cross == 0) & forward), [True]))
+    return points[keep]
+
+
+def simplify(points: np.ndarray, free: np.ndarray, tolerance: float) -> np.ndarray:
+    """Douglas-Peucker simplification that only accepts chords lying on free pixels."""
+    if len(points) <= 2:
+        return points
+    start, end = points[0].astype(float), points[-1].astype(float)
+    chord = end - start
+    chord_length = math.hypot(chord[0], chord[1])
+    offsets = points[1:-1] - start
+    if chord_length > 0:
+        deviation = np.abs(offsets[:, 0] * chord[1] - offsets[:, 1] * chord[0]) / chord_length
+    else:
+        deviation = np.hypot(offsets[:, 0], offsets[:, 1])
+    farthest = int(np.argmax(deviation)) + 1
+    if deviation[farthest - 1] <= tolerance and segment_is_free(free, start, end):
+        return points[[0, -1]]
+    left = simplify(points[: farthest + 1], free, tolerance)
+    right = simplify(points[farthest:], free, tolerance)
+    return np.vstack((left, right[1:]))
+
+
+# --------------------------------------------------------------------------------------------
+# 3. Sweeping one cell
+# --------------------------------------------------------------------------------------------
+
+
+def cell_sweeps(cell: Cell, cell_swaths: list[np.ndarray], centre_free: np.ndarray, narrow: bool) -> list[np.ndarray]:
+    """Four ways to sweep a cell, as raster (row, col) polylines; variant k ^ 1 is k reversed.
+
+    Ordinary cell: lanes in order, alternating direction, starting at the lo (variant 0) or hi
+    (variant 2) end of the first lane; each connector follows the cell edge on the side where
+    the previous lane ended. Narrow cell: out along the lo edge and back along the hi edge,
+    turning round at the last line (variant 0) or at the first line (variant 2).
+    """
+    lines = line_view(centre_free, cell.sweep_axis)
+    if narrow:
+        first_pass = [cell_swaths[0], cell_swaths[0][::-1]]
+        bases = [[edge] + [other[::-1] for other in cell_swaths[1:]] for edge in first_pass]
+    else:
+        bases = [_lanes_boustrophedon(cell, cell_swaths, start_side) for start_side in (0, 1)]
+    sweeps = []
+    for pieces in bases:
+        path = drop_redundant_points(np.vstack(pieces))
+        path = _simplify_boundary_runs(path, lines)
+        pixels = cell.to_pixels(path)
+        sweeps += [pixels, pixels[::-1]]
+    return sweeps
+
+
+def _lanes_boustrophedon(cell: Cell, lanes: list[np.ndarray], start_side: int) -> list[np.ndarray]:
+    """Lanes joined back and forth, connectors along the cell edge (side 0: lo, 1: hi)."""
+    pieces = []
+    side = start_side
+    for k, lane in enumerate(lanes):
+        line = int(lane[0, 0])
+        if k > 0:
+            previous_line = int(lanes[k - 1][0, 0])
+            pieces.append(boundary_walk(cell, side, previous_line, line))
+        pieces.append(lane if side == 0 else lane[::-1])
+        side = 1 - side
+    return pieces
+
+
+def _simplify_boundary_runs(path: np.ndarray, lines: np.ndarray) -> np.ndarray:
+    """Simplify a sweep polyline without moving its lanes.
+
+    Only staircase stretches (runs of short segments, as produced by ``boundary_walk`` on sloped
+    edges) are simplified; straight lanes and long connectors are kept exactly, since the outer
+    lanes must stay on the outermost centre positions to reach the edge strip.
+    """
+    segment_lengths = np.abs(np.diff(path, axis=0)).max(axis=1)
+    short = segment_lengths <= 1
+    result = [path[:1]]
+    k = 0
+    while k < len(short):
+        if not short[k]:
+            result.append(path[k + 1 : k + 2])
+            k += 1
+            continue
+        end = k
+        while end < len(short) and short[end]:
+            end += 1
+        result.append(simplify(path[k : end + 1], lines, BOUNDARY_SIMPLIFY_TOLERANCE_PX)[1:])
+        k = end
+    return np.vstack(result)
+
+
+# --------------------------------------------------------------------------------------------
+# 4. Routing
+# --------------------------------------------------------------------------------------------
+
+
+def route(
+    sweeps: list[list[np.ndarray]],
+    start: Sequence[int],
+    pairwise_distance: Callable[[np.ndarray], np.ndarray],
+    last_cells: set[int] | frozenset[int] = frozenset(),
+) -> list[tuple[int, int]]:
+    """Order the cells and choose how to sweep each: a list of (cell index, variant index).
+
+    ``sweeps[i]`` lists the variants of cell i (polylines in pixels; variant k ^ 1 must be
+    variant k reversed). ``pairwise_distance(points)`` returns the transit cost matrix between
+    pixel points. Cells in ``last_cells`` come after all the others.
+
+    The objective is transits plus in-cell lengths. Greedy nearest neighbour builds a first
+    route; then 2-opt (reversing a stretch of the route reverses each of its cells, which is
+    still a valid sweep, so the move is exact) and a dynamic programme that picks the best
+    variant of every cell for the fixed order alternate until neither improves.
+    """
+    entries = np.array([[variant[0] for variant in cell] for cell in sweeps])  # (cells, variants, 2)
+    cell_count, variant_count = entries.shape[:2]
+    if cell_count == 0:
+        return []
+    in_cell_length = np.array([[polyline_length(variant) for variant in cell] for cell in sweeps])
+    # Exits are the entries of the reversed variants, so one set of points serves for both.
+    points = np.vstack((np.asarray(start)[None, :], entries.reshape(-1, 2)))
+    distances = pairwise_distance(points)
+    start_to = distances[0, 1:].reshape(cell_count, variant_count)
+    between = distances[1:, 1:].reshape(cell_count, variant_count, cell_count, variant_count)
+    # transit[a, v, b, w]: from the exit of cell a swept by variant v to the entry of b by w.
+    transit = between[:, np.arange(variant_count) ^ 1]
+
+    groups = [[i for i in range(cell_count) if i not in last_cells], sorted(set(last_cells) & set(range(cell_count)))]
+    tour = _greedy(groups, start_to, transit, in_cell_length)
+    group_end = len(groups[0])
+    cost = _tour_cost(tour, start_to, transit, in_cell_length)
+    while True:
+        tour = _two_opt(tour, group_end, start_to, transit)
+        tour = _best_variants([cell for cell, _ in tour], start_to, transit, in_cell_length)
+        new_cost = _tour_cost(tour, start_to, transit, in_cell_length)
+        if new_cost >= cost - 1e-9:
+            return tour
+        cost = new_cost
+
+
+def _tour_cost(tour, start_to, transit, in_cell_length) -> float:
+    cost = start_to[tour[0]] + sum(in_cell_length[step] for step in tour)
+    return float(cost + sum(transit[a + b] for a, b in zip(tour[:-1], tour[1:])))
+
+
+def _greedy(groups, start_to, transit, in_cell_length) -> list[tuple[int, int]]:
+    """Nearest neighbour: repeatedly sweep the unswept cell whose entry is the closest."""
+    tour: list[tuple[int, int]] = []
+    for group in groups:
+        remaining = list(group)
+        while remaining:
+            costs = start_to[remaining] if not tour else transit[tour[-1]][remaining]
+            # Equal transits (adjacent cells) are decided by the cheaper way through the cell.
+            costs = costs + 1e-6 * in_cell_length[remaining]
+            flat = int(np.argmin(costs))
+            row, variant = divmod(flat, costs.shape[1])
+            tour.append((remaining.pop(row), variant))
+    return tour
+
+
+def _two_opt(tour, group_end, start_to, transit) -> list[tuple[int, int]]:
+    """2-opt on the open route with a fixed start; stretches never cross the group boundary."""
+    tour = list(tour)
+
+    def exit_to(previous_position, step):
+        return start_to[step] if previous_position < 0 else transit[tour[previous_position] + step]
+
+    improved = True
+    while improved:
+        improved = False
+        for group_start, group_stop in ((0, group_end), (group_end, len(tour))):
+            for i in range(group_start, group_stop):
+                for j in range(i, group_stop):
+                    first, last = tour[i], tour[j]
+                    reversed_first = (first[0], first[1] ^ 1)
+                    reversed_last = (last[0], last[1] ^ 1)
+                    old = exit_to(i - 1, first)
+                    new = exit_to(i - 1, reversed_last)
+                    if j + 1 < len(tour):
+                        old += transit[last + tour[j + 1]]
+                        new += transit[reversed_first + tour[j + 1]]
+                    if new < old - 1e-9:
+                        tour[i : j + 1] = [(cell, variant ^ 1) for cell, variant in reversed(tour[i : j + 1])]
+                        improved = True
+    return tour
+
+
+def _best_variants(order, start_to, transit, in_cell_length) -> list[tuple[int, int]]:
+    """For a fixed cell order, the cheapest variant of every cell (Viterbi over the variants)."""
+    cost = start_to[order[0]] + in_cell_length[order[0]]
+    choices = []
+    for previous, cell in zip(order[:-1], order[1:]):
+        candidates = cost[:, None] + transit[previous, :, cell, :]
+        choices.append(np.argmin(candidates, axis=0))
+        cost = candidates.min(axis=0) + in_cell_length[cell]
+    variants = [int(np.argmin(cost))]
+    for choice in reversed(choices):
+        variants.append(int(choice[variants[-1]]))
+    return list(zip(order, reversed(variants)))
+
+
+# --------------------------------------------------------------------------------------------
+# 5. The whole plan
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class Plan:
+    """A coverage plan: ``waypoints`` (N, 2) in metres, starting at the start point."""
+
+    waypoints: np.ndarray
+    cells: list[Cell]
+    sweep_axis: int
+    length: float
+    cell_order: list[int]
+
+
+def plan_coverage(
+    centre_free: np.ndarray,
+    resolution: float,
+    origin: Sequence[float],
+    tool_width: float = 0.35,
+    start: Sequence[float] = (0.0, 0.0),
+    last_cells: Callable[[Cell], bool] | None = None,
+    sweep_axis: int | None = None,
+) -> Plan:
+    """Plan a path whose tool disc covers all the area reachable from ``start``.
+
+    ``last_cells`` is a predicate on cells; the cells it selects are swept after all the others
+    (e.g. the cells holding goal markers: ``lambda cell: cell.contains(*world_to_pixel(marker,
+    resolution, origin))``). ``sweep_axis`` None tries both axes and keeps the shorter plan.
+    The plan is restricted to the pixels 4-connected to the start (snapped to the nearest free
+    pixel when it is not on one).
+    """
+    centre_free = np.asarray(centre_free, dtype=bool)
+    if not centre_free.any():
+        raise ValueError("centre_free has no free pixel")
+    start_pixel = _nearest_free_pixel(centre_free, world_to_pixel(start, resolution, origin))
+    labels, _ = ndimage.label(centre_free)
+    reachable = labels == labels[start_pixel]
+    free_space = FreeSpace(reachable)
+    free_space.search_radius_px = ROUTING_SEARCH_RADIUS_M / resolution
+    axes = (0, 1) if sweep_axis is None else (sweep_axis,)
+    plans = [
+        _plan_for_axis(free_space, axis, resolution, origin, tool_width, start, start_pixel, last_cells)
+        for axis in axes
+    ]
+    return min(plans, key=lambda plan: plan.length)
+
+
+def _nearest_free_pixel(centre_free: np.ndarray, pixel: tuple[int, int]) -> tuple[int, int]:
+    row = min(max(pixel[0], 0), centre_free.shape[0] - 1)
+    col = min(max(pixel[1], 0), centre_free.shape[1] - 1)
+    if centre_free[row, col]:
+        return row, col
+    _, (nearest_rows, nearest_cols) = ndimage.distance_transform_edt(~centre_free, return_indices=True)
+    return int(nearest_rows[row, col]), int(nearest_cols[row, col])
+
+
+def _plan_for_axis(free_space, sweep_axis, resolution, origin, tool_width, start, start_pixel, last_cells) -> Plan:
+    max_jump = max_lane_spacing_px(tool_width, resolution) // 2
+    cells = decompose(free_space.free, sweep_axis, max_jump=max_jump)
+    sweeps = [
+        cell_sweeps(cell, swaths(cell, tool_width, resolution), free_space.free, is_narrow(cell, tool_width, resolution))
+        for cell in cells
+    ]
+    chosen_last = {index for index, cell in enumerate(cells) if last_cells is not None and last_cells(cell)}
+    tour = route(sweeps, start_pixel, free_space.pairwise_distances, chosen_last)
+    pieces = [np.array([start_pixel])]
+    for cell_index, variant in tour:
+        sweep = sweeps[cell_index][variant]
+        pieces.append(free_space.transit(tuple(pieces[-1][-1]), tuple(sweep[0]))[1:])
+        pieces.append(sweep[1:])
+    pixel_path = drop_redundant_points(np.vstack(pieces))
+    waypoints = np.vstack((np.asarray(start, dtype=float)[None, :], pixels_to_world(pixel_path, resolution, origin)))
+    waypoints = waypoints[np.concatenate(([True], np.any(np.diff(waypoints, axis=0) != 0, axis=1)))]
+    return Plan(
+        waypoints=waypoints,
+        cells=cells,
+        sweep_axis=sweep_axis,
+        length=polyline_length(waypoints),
+        cell_order=[cell_index for cell_index, _ in tour],
+    )

@@ -1,0 +1,99 @@
+"""Navigation complexity (seed §4.1): Shannon entropy of each free cell's 8-neighbourhood.
+
+On an occupancy grid whose cells are robot-sized, a free cell with n occupied neighbours among
+its 8 (neighbours outside the map count as free) has p = n / 8 and
+H = -p log2 p - (1 - p) log2 (1 - p), 0 when p is 0 or 1; obstacle cells score 0. ``total`` is
+the sum of H, ``normalized`` is total / (rows × cols). The seed's Table 4.1: 4.4859 (Matrix A)
+and 11.1065 (Matrix B).
+
+    python -m cabinbench.complexity LAYOUT [--json] [--png FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from .layout import Layout, load_layout
+
+
+@dataclass(frozen=True)
+class Complexity:
+    cell_map: np.ndarray  # H per grid cell, rows bottom to top
+    occupancy: np.ndarray  # True where occupied
+
+    @property
+    def total(self) -> float:
+        return float(self.cell_map.sum())
+
+    @property
+    def normalized(self) -> float:
+        return self.total / self.cell_map.size
+
+
+def grid_complexity(occupancy: np.ndarray) -> Complexity:
+    """Complexity of a boolean occupancy grid (True = obstacle)."""
+    occupancy = np.asarray(occupancy, dtype=bool)
+    neighbours = np.ones((3, 3))
+    neighbours[1, 1] = 0
+    occupied_neighbours = ndimage.convolve(occupancy.astype(float), neighbours, mode="constant", cval=0.0)
+    p = occupied_neighbours / 8.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        entropy = -p * np.log2(p) - (1 - p) * np.log2(1 - p)
+    entropy = np.nan_to_num(entropy, nan=0.0)  # p = 0 or 1 gives 0·log 0
+    entropy[occupancy] = 0.0
+    return Complexity(entropy, occupancy)
+
+
+def layout_complexity(layout: Layout) -> Complexity:
+    """Complexity of a layout rasterised to robot-sized cells."""
+    return grid_complexity(layout.obstacle_grid())
+
+
+def save_complexity_png(result: Complexity, path: str, title: str = "") -> None:
+    """The complexity map (like the seed's Fig. 5.5(c)): obstacles dark, free cells by H."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows, cols = result.cell_map.shape
+    figure, axes = plt.subplots(figsize=(max(4, cols * 0.25), max(2.5, rows * 0.25 + 1)))
+    shown = np.ma.masked_where(result.occupancy, result.cell_map)
+    colour_map = plt.get_cmap("viridis").with_extremes(bad=(0.2, 0.2, 0.25))
+    image = axes.imshow(shown, origin="lower", cmap=colour_map, vmin=0, vmax=1)
+    figure.colorbar(image, ax=axes, label="H (bits)", shrink=0.8)
+    axes.set_title(f"{title}  total {result.total:.4f}, normalized {result.normalized:.4f}")
+    axes.set_xlabel("cell (robot diameters)")
+    figure.tight_layout()
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m cabinbench.complexity", description=__doc__.split("\n\n")[0])
+    parser.add_argument("layout", help="layout name or YAML path")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--png", metavar="FILE", help="draw the complexity map to FILE")
+    args = parser.parse_args(argv)
+    layout = load_layout(args.layout)
+    result = layout_complexity(layout)
+    summary = {"layout": layout.name, "grid": list(result.cell_map.shape), "total": round(result.total, 4),
+               "normalized": round(result.normalized, 4)}
+    if args.png:
+        save_complexity_png(result, args.png, layout.name)
+        summary["png"] = args.png
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        rows, cols = result.cell_map.shape
+        print(f"{layout.name}: {rows}x{cols} robot cells, total {result.total:.4f}, normalized {result.normalized:.4f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
