@@ -217,7 +217,7 @@ class World:
             turned = _wrap(after[index, 2] - before[index, 2])
             heading = before[index, 2]
             events[index].distance = float(np.hypot(*moved))
-            events[index].rotation = abs(turned)
+            events[index].rotation = float(abs(turned))
             self.velocities[index] = (
                 (moved[0] * math.cos(heading) + moved[1] * math.sin(heading)) / TIME_STEP,
                 turned / TIME_STEP,

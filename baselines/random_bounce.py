@@ -1,0 +1,51 @@
+"""``random_bounce``: the seed's random motion (§2.2.1, §5.2.3), the way consumer robots clean.
+
+Drive straight at full speed until the bumper fires, then turn on the spot by a random angle
+(uniform in ±[``min_turn``, π]) and drive on. The bumper fires on a new contact event
+(``info["collisions"]`` grows) or when the robot stalls (its measured forward speed, the
+observation's odometry entry, stays under a third of the command: pressed against a wall).
+It uses no lidar. Seeded from the episode seed and the robot's index.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cabinbench.world import TIME_STEP
+
+from .base import Baseline, EpisodeContext
+
+
+class RandomBounce(Baseline):
+    name = "random_bounce"
+
+    def __init__(self, min_turn: float = math.pi / 4, **config):
+        super().__init__(min_turn=min_turn, **config)
+        self.min_turn = min_turn
+
+    def reset(self, context: EpisodeContext, observation: np.ndarray, info: dict) -> None:
+        super().reset(context, observation, info)
+        self.rng = np.random.default_rng([context.seed, context.agent])
+        self.turn_left = 0.0  # radians still to turn; the sign gives the direction
+        self.collisions = info.get("collisions", 0)
+        self.driving_steps = 0
+
+    def act(self, observation: np.ndarray, info: dict) -> np.ndarray:
+        robot = self.context.layout.robot
+        collisions = info.get("collisions", 0)
+        bumped = collisions > self.collisions
+        stalled = self.driving_steps > 2 and observation[-2] < 1 / 3
+        self.collisions = collisions
+        if self.turn_left == 0.0 and (bumped or stalled):
+            magnitude = self.rng.uniform(self.min_turn, math.pi)
+            self.turn_left = magnitude if self.rng.random() < 0.5 else -magnitude
+        if self.turn_left != 0.0:
+            self.driving_steps = 0
+            step_turn = robot.max_turn_rate * TIME_STEP  # radians per env step at full turn rate
+            turn = math.copysign(min(abs(self.turn_left), step_turn), self.turn_left)
+            self.turn_left = 0.0 if abs(self.turn_left) <= step_turn else self.turn_left - turn
+            return np.array([0.0, turn / step_turn])
+        self.driving_steps += 1
+        return np.array([1.0, 0.0])
