@@ -97,7 +97,7 @@ class Layout:
     parameters: dict = field(default_factory=dict)  # the kind's own block, as written
 
     # ----------------------------------------------------------------------------- geometry
-    @property
+    @cached_property
     def extent(self) -> tuple[float, float, float, float]:
         (xmin, ymin), (xmax, ymax) = self.boundary.min(axis=0), self.boundary.max(axis=0)
         return float(xmin), float(ymin), float(xmax), float(ymax)
@@ -113,12 +113,12 @@ class Layout:
         return np.concatenate([cell.goals for cell in self.cells]).reshape(-1, 2)
 
     # ----------------------------------------------------------------------------- rasters
-    @property
+    @cached_property
     def raster_shape(self) -> tuple[int, int]:
         xmin, ymin, xmax, ymax = self.extent
         return (max(1, round((ymax - ymin) / RESOLUTION)), max(1, round((xmax - xmin) / RESOLUTION)))
 
-    @property
+    @cached_property
     def origin(self) -> tuple[float, float]:
         return self.extent[0], self.extent[1]
 

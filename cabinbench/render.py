@@ -9,6 +9,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from .layout import RESOLUTION
+from .lidar import BOUND
 from .world import World
 
 FLOOR = (238, 228, 208)
@@ -41,10 +42,9 @@ def draw_frame(world: World, trajectories: np.ndarray | None = None, scale: int 
     def to_image(x: float, y: float) -> tuple[float, float]:
         return (x - x0) / RESOLUTION * scale, (height - (y - y0) / RESOLUTION) * scale
 
-    for passage, shapes in enumerate(world.bound_shapes):
-        if shapes and shapes[0].space is not None:
-            for x_a, y_a, x_b, y_b in layout.passages[passage].bounds:
-                draw.line([to_image(x_a, y_a), to_image(x_b, y_b)], fill=(0, 0, 0), width=max(2, scale))
+    for (x_a, y_a, x_b, y_b), solid, tag in zip(world.segments, world.segment_on, world.segment_tags):
+        if solid and tag == BOUND:
+            draw.line([to_image(x_a, y_a), to_image(x_b, y_b)], fill=(0, 0, 0), width=max(2, scale))
     marker = max(3, int(0.08 / RESOLUTION * scale))
     goals, exits = world.markers_visible()
     for (x, y), visible in zip(world.circles[: world.n_goals, :2], goals):

@@ -23,7 +23,9 @@ from .layout import MARKER_RADIUS, RESOLUTION, Layout
 from .lidar import BOUND, EXIT, GOAL, OBSTACLE, ROBOT, LidarConfig, cast_rays, encode_scan
 
 TIME_STEP = 0.1  # seconds of simulated time per env step
-PHYSICS_SUBSTEPS = 2  # keeps contacts stiff at 0.5 m/s
+PHYSICS_SUBSTEPS = 4  # 1.25 cm of travel per substep: a first contact sinks in at most that far
+ROBOT_MASS = 3.5  # kg, an iRobot Create 2
+MOTOR_FORCE = 1000.0  # N (and N·m): reaches the commanded velocity within a substep
 PROTOCOLS = ("sequential", "open")
 _ROBOT_TYPE, _WALL_TYPE, _BOUND_TYPE = 1, 2, 3
 
@@ -117,15 +119,26 @@ class World:
                 bound.collision_type, bound.friction = _BOUND_TYPE, 0.0
                 shapes.append(bound)
             self.bound_shapes.append(shapes)
-        self.bodies = []
+        self.bodies, self.motors = [], []
         for index, (x, y, heading) in enumerate(self.start_poses):
-            body = pymunk.Body(1.0, math.inf)
+            body = pymunk.Body(ROBOT_MASS, pymunk.moment_for_circle(ROBOT_MASS, 0.0, layout.robot.radius))
             body.position, body.angle = (x, y), heading
             shape = pymunk.Circle(body, layout.robot.radius)
             shape.collision_type, shape.friction, shape.elasticity = _ROBOT_TYPE, 0.0, 0.0
             shape.robot_index = index
-            space.add(body, shape)
+            # Velocity control through force-limited joints to a kinematic "motor" body (Chipmunk's
+            # top-down idiom): contacts always win, so the robot never sinks into a wall. Setting
+            # the body's velocity directly each step overrides the contact solver instead.
+            motor = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+            motor.position, motor.angle = (x, y), heading
+            drive = pymunk.PivotJoint(motor, body, (0, 0), (0, 0))
+            steer = pymunk.GearJoint(motor, body, 0.0, 1.0)
+            for joint in (drive, steer):
+                joint.max_bias, joint.max_force = 0.0, MOTOR_FORCE
+            space.add(body, shape, motor, drive, steer)
             self.bodies.append(body)
+            self.motors.append(motor)
+        self._read_poses()
         space.on_collision(_ROBOT_TYPE, _WALL_TYPE, begin=self._on_wall_contact)
         space.on_collision(_ROBOT_TYPE, _BOUND_TYPE, begin=self._on_bound_contact)
         space.on_collision(_ROBOT_TYPE, _ROBOT_TYPE, begin=self._on_robot_contact)
@@ -137,6 +150,9 @@ class World:
         self.current_cell = max(0, cleared - 1) if cleared else 0
         self.goal_reached = np.zeros(self.n_goals, dtype=bool)
         self.goal_reached[self.goal_cell < cleared] = True
+        self.segment_on = np.ones(len(self.segments), dtype=bool)
+        for bounds in self.bound_slices:
+            self.segment_on[bounds] = False  # bounds start open; the sequential protocol closes them
         self.passage_open = np.zeros(len(layout.passages), dtype=bool)
         self.passage_closing = -1
         self.success = False
@@ -161,11 +177,13 @@ class World:
             self._pending[index].new_coverable_pixels += self._stamp(index)
 
     def _set_bound(self, passage: int, solid: bool) -> None:
+        """Close (solid) or open a passage's bounds, in physics and for the lidar alike."""
         shapes = self.bound_shapes[passage]
         if solid and shapes[0].space is None:
             self.space.add(*shapes)
         elif not solid and shapes[0].space is not None:
             self.space.remove(*shapes)
+        self.segment_on[self.bound_slices[passage]] = solid
 
     # ------------------------------------------------------------------------ contacts
     def _on_wall_contact(self, arbiter, space, data):
@@ -186,7 +204,12 @@ class World:
     # ---------------------------------------------------------------------------- state
     @property
     def poses(self) -> np.ndarray:
-        return np.array([(b.position.x, b.position.y, b.angle) for b in self.bodies])
+        """(K, 3) x, y, heading of every robot, as of the last reset or step."""
+        return self._poses
+
+    def _read_poses(self) -> np.ndarray:
+        self._poses = np.array([(*b.position, b.angle) for b in self.bodies])
+        return self._poses
 
     @property
     def coverage(self) -> float:
@@ -201,15 +224,14 @@ class World:
         """Advance one env step. ``actions`` is (K, 2) in [-1, 1]: (linear, angular)."""
         robot = self.layout.robot
         before = self.poses
-        for body, (linear, angular) in zip(self.bodies, actions):
-            body.angular_velocity = float(angular) * robot.max_turn_rate
         substep = TIME_STEP / PHYSICS_SUBSTEPS
         for _ in range(PHYSICS_SUBSTEPS):
-            for body, (linear, angular) in zip(self.bodies, actions):
+            for body, motor, (linear, angular) in zip(self.bodies, self.motors, actions):
                 speed = float(linear) * robot.max_speed  # re-aimed each substep: the robot turns while driving
-                body.velocity = (speed * math.cos(body.angle), speed * math.sin(body.angle))
+                motor.velocity = (speed * math.cos(body.angle), speed * math.sin(body.angle))
+                motor.angular_velocity = float(angular) * robot.max_turn_rate
             self.space.step(substep)
-        after = self.poses
+        after = self._read_poses()
         events = self._pending
         self._pending = [RobotEvents() for _ in range(self.n_robots)]
         for index in range(self.n_robots):
@@ -228,8 +250,7 @@ class World:
         return step_events
 
     def _stamp(self, index: int) -> int:
-        body = self.bodies[index]
-        x, y = body.position
+        x, y = self._poses[index, :2]
         previous_x, previous_y = self.previous_positions[index]
         origin_x, origin_y = self.layout.origin
         new_floor, new_coverable = stamp_footprint(
@@ -243,14 +264,16 @@ class World:
     def _update_protocol(self, events: StepEvents, poses: np.ndarray) -> None:
         reach = self._radius  # a marker is reached when it is under the robot's footprint
         positions = poses[:, :2]
-        for goal in np.flatnonzero(~self.goal_reached):
-            if self.protocol == "sequential" and self.goal_cell[goal] != self.current_cell:
-                continue
-            distances = np.hypot(*(positions - self.circles[goal, :2]).T)
-            if distances.min() <= reach:
-                self.goal_reached[goal] = True
-                events.robots[int(distances.argmin())].goals_reached += 1
-        for cell in np.flatnonzero(~self.cell_cleared):
+        goals, _ = self.markers_visible()
+        candidates = np.flatnonzero(goals)
+        if len(candidates):
+            offsets = self.circles[candidates, None, :2] - positions[None, :, :]  # (goals, robots, 2)
+            distances = np.sqrt((offsets**2).sum(axis=2))
+            for goal, distances_to_robots in zip(candidates, distances):
+                if distances_to_robots.min() <= reach:
+                    self.goal_reached[goal] = True
+                    events.robots[int(distances_to_robots.argmin())].goals_reached += 1
+        for cell in self._cells_to_check():
             if self._cell_done(cell):
                 self.cell_cleared[cell] = True
                 events.cells_cleared += 1
@@ -263,6 +286,13 @@ class World:
         else:
             self.success = self.coverage >= self.layout.success_coverage
         events.success = self.success
+
+    def _cells_to_check(self) -> np.ndarray:
+        """Uncleared cells that may have been completed: in sequential only the current one."""
+        if self.protocol == "sequential":
+            current = self.current_cell
+            return np.array([current]) if not self.cell_cleared[current] else np.zeros(0, int)
+        return np.flatnonzero(~self.cell_cleared)
 
     def _cell_done(self, cell: int) -> bool:
         goals = self.goal_cell == cell
@@ -312,12 +342,9 @@ class World:
         robots[index] = False
         self.circles[self.n_goals + self.n_exits:, :2] = poses[:, :2]
         circle_on = np.concatenate([goals, exits, robots])
-        segment_on = np.ones(len(self.segments), dtype=bool)
-        for passage, bounds in enumerate(self.bound_slices):
-            segment_on[bounds] = self.protocol == "sequential" and self.bound_shapes[passage][0].space is not None
         x, y, heading = poses[index]
         cast_rays(x, y, heading, self.ray_angles, self.lidar.max_range, self.segments, self.segment_tags,
-                  segment_on, self.circles, self.circle_tags, circle_on, self._distances, self._tags)
+                  self.segment_on, self.circles, self.circle_tags, circle_on, self._distances, self._tags)
         if self.lidar.noise > 0:
             noisy = self._distances + self.rng.normal(0.0, self.lidar.noise, self.lidar.n_rays)
             np.clip(noisy, 0.0, self.lidar.max_range, out=self._distances)

@@ -1,0 +1,141 @@
+"""Throughput bench: ``python -m cabinbench.bench [--steps N] [--json]``.
+
+Measures, in one process pinned to one core:
+
+- single-env steps/s of ``CabinBench/Coverage-v0`` (64 rays, random actions, resets included) on
+  ``a320_cell`` and ``full_cabin``;
+- the batched training env's agent-steps/s (env stepping alone, random actions);
+- the boustrophedon planner's time to plan ``full_cabin``;
+- peers stepped in the same run, so ratios survive machine drift: PettingZoo's Pistonball
+  (pymunk physics, like ours; needs pygame) and Gymnasium's CartPole (pure-Python physics, a
+  floor for per-step overhead).
+
+Speed is stated by this command, never asserted by a test.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+
+import gymnasium as gym
+import numpy as np
+
+import cabinbench  # noqa: F401  (registers the envs)
+
+
+def steps_per_second(env, steps: int, seed: int = 0) -> float:
+    """Random-action steps per second of a Gymnasium env, resets included."""
+    env.action_space.seed(seed)
+    actions = [env.action_space.sample() for _ in range(steps)]  # drawn before timing
+
+    def run(actions) -> None:
+        env.reset(seed=seed)
+        for action in actions:
+            *_, terminated, truncated, _ = env.step(action)
+            if terminated or truncated:
+                env.reset()
+
+    run(actions[: min(200, steps)])  # warm-up: numba caches, allocator
+    started = time.perf_counter()
+    run(actions)
+    return steps / (time.perf_counter() - started)
+
+
+def bench_single(layout: str, steps: int) -> float:
+    return steps_per_second(gym.make("CabinBench/Coverage-v0", layout=layout, n_rays=64), steps)
+
+
+def bench_batched(layout: str, num_envs: int, steps: int) -> float | None:
+    """Agent-steps/s of the batched env, or None while it is not part of this install."""
+    try:
+        from cabinbench.envs.batched import BatchedCoverageEnv
+    except ImportError:
+        return None
+    import torch
+
+    env = BatchedCoverageEnv(layout, num_envs=num_envs, seed=0)
+    generator = torch.Generator().manual_seed(0)
+    actions = torch.rand((steps, num_envs, 2), generator=generator) * 2 - 1
+    for action in actions[:5]:
+        env.step(action)
+    started = time.perf_counter()
+    for action in actions:
+        env.step(action)
+    return steps * num_envs / (time.perf_counter() - started)
+
+
+def bench_planner(layout: str) -> float | None:
+    """Seconds to plan a layout with the boustrophedon planner (best of 3)."""
+    try:
+        from baselines.boustrophedon import plan_layout
+    except ImportError:
+        return None
+    from cabinbench.layout import load_layout
+
+    loaded = load_layout(layout)
+    plan_layout(loaded, protocol="sequential")  # warm-up
+    timings = []
+    for _ in range(3):
+        started = time.perf_counter()
+        plan_layout(loaded, protocol="sequential")
+        timings.append(time.perf_counter() - started)
+    return min(timings)
+
+
+def bench_pistonball(steps: int) -> float | None:
+    """Agent-steps/s of PettingZoo's Pistonball (pymunk), or None without pygame."""
+    os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+    try:
+        from pettingzoo.butterfly import pistonball_v6
+    except ImportError:
+        return None
+    env = pistonball_v6.parallel_env(continuous=True)
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    agent_steps, started = 0, time.perf_counter()
+    for _ in range(steps):
+        actions = {agent: rng.uniform(-1, 1, (1,)).astype(np.float32) for agent in env.agents}
+        env.step(actions)
+        agent_steps += len(actions)
+        if not env.agents:
+            env.reset()
+    return agent_steps / (time.perf_counter() - started)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m cabinbench.bench", description="Env throughput, beside peer envs.")
+    parser.add_argument("--steps", type=int, default=20000, help="single-env steps per measurement")
+    parser.add_argument("--num-envs", type=int, default=256, help="envs in the batched env")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    args = parser.parse_args(argv)
+    if hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})  # one core, as the targets say
+    results = {
+        "single_a320_cell_steps_per_s": bench_single("a320_cell", args.steps),
+        "single_full_cabin_steps_per_s": bench_single("full_cabin", args.steps),
+        "batched_a320_cell_agent_steps_per_s": bench_batched("a320_cell", args.num_envs, max(10, args.steps // args.num_envs)),
+        "boustrophedon_plan_full_cabin_s": bench_planner("full_cabin"),
+        "peer_cartpole_steps_per_s": steps_per_second(gym.make("CartPole-v1"), args.steps),
+        "peer_pistonball_agent_steps_per_s": bench_pistonball(max(50, args.steps // 200)),
+    }
+    cartpole = results["peer_cartpole_steps_per_s"]
+    pistonball = results["peer_pistonball_agent_steps_per_s"]
+    results["ratio_a320_cell_to_cartpole"] = results["single_a320_cell_steps_per_s"] / cartpole
+    if pistonball:
+        results["ratio_a320_cell_to_pistonball"] = results["single_a320_cell_steps_per_s"] / pistonball
+    if args.json:
+        print(json.dumps({k: (round(v, 4) if isinstance(v, float) else v) for k, v in results.items()}))
+        return 0
+    targets = {"single_a320_cell_steps_per_s": "target >= 10,000", "batched_a320_cell_agent_steps_per_s": "target >= 50,000",
+               "boustrophedon_plan_full_cabin_s": "target < 1 s"}
+    for name, value in results.items():
+        shown = "not available in this install" if value is None else f"{value:,.4g}" if value < 100 else f"{value:,.0f}"
+        print(f"{name:<40} {shown:>16}   {targets.get(name, '')}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

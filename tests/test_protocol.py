@@ -1,0 +1,91 @@
+"""The seed's cell-by-cell protocol, end to end through physics: goals clear a cell, bounds block
+and count, exits move the robot on and the bound closes behind it."""
+
+import numpy as np
+import pytest
+
+from cabinbench.envs.coverage_env import CoverageEnv
+from cabinbench.lidar import BOUND, EXIT, GOAL
+
+from .driving import action_towards, drive
+
+
+def goal_tour(layout, cell):
+    """Waypoints from the aisle into each goal of ``cell`` and back."""
+    aisle_y = layout.start[1]
+    waypoints = []
+    for x, y in layout.cells[cell].goals:
+        waypoints += [(x, aisle_y), (x, y), (x, aisle_y)]
+    return waypoints
+
+
+def test_reaching_every_goal_clears_the_cell_and_ends_the_episode():
+    env = CoverageEnv("a320_cell")
+    env.reset(seed=0)
+    info, terminated = drive(env, goal_tour(env.layout, 0))
+    assert terminated
+    record = info["episode_record"]
+    assert record["success"] and record["cells_cleared"] == 1 and record["bound_violations"] == 0
+
+
+def test_paper_rewards_follow_table_4_4():
+    env = CoverageEnv("a320_cell", reward="paper")
+    env.reset(seed=0)
+    _, step_reward, *_ = env.step([0.0, 0.0])
+    assert step_reward == pytest.approx(-0.01)
+    rewards, terminated = [], False
+    waypoints = iter(goal_tour(env.layout, 0))
+    target = next(waypoints)
+    while not terminated:
+        action, arrived = action_towards(env.world.poses[0], target)
+        if arrived:
+            target = next(waypoints)
+            continue
+        _, step_reward, terminated, *_ = env.step(action)
+        rewards.append(step_reward)
+    assert rewards.count(pytest.approx(0.49)) == 3  # three goals at +0.5 - 0.01
+    assert rewards[-1] == 3.0  # the clearing step is set to 3
+
+
+def test_bounds_block_the_aisle_and_count_violations():
+    env = CoverageEnv("full_cabin")
+    env.reset(seed=0)
+    env.step([0.0, 0.0])
+    for _ in range(120):  # drive down the aisle towards the closed bound of cell 0
+        *_, info = env.step([1.0, 0.0])
+    bound_x = env.layout.passages[0].bounds[0, 0]
+    assert info["pose"][0] < bound_x - 0.17  # the bound is solid
+    assert info["bound_violations"] == 1
+    open_env = CoverageEnv("full_cabin", protocol="open")
+    open_env.reset(seed=0)
+    for _ in range(120):
+        *_, info = open_env.step([1.0, 0.0])
+    assert info["pose"][0] > bound_x + 1.0 and info["bound_violations"] == 0
+
+
+def test_exit_moves_the_robot_on_and_the_bound_closes_behind():
+    env = CoverageEnv("a320_tracking_cell")
+    observation, _ = env.reset(seed=0)
+    tags = observation[:-2].reshape(-1, 6)[:, 1:].argmax(axis=1) + 1
+    assert EXIT in tags[observation[:-2].reshape(-1, 6)[:, 1:].sum(axis=1) > 0]  # the exit shows
+    exit_point = env.layout.passages[0].exits[0]
+    info, _ = drive(env, [(exit_point[0] - 0.3, exit_point[1]), tuple(exit_point)])
+    assert info["current_cell"] == 1
+    for _ in range(5):
+        *_, info = env.step([0.3, 0.0])
+    world = env.world
+    assert world.segment_on[world.bound_slices[0]].all()  # closed behind the robot
+    goals, exits = world.markers_visible()
+    assert goals.sum() == 4 and not exits.any()
+    # the next cell's goals are what the lidar tags now
+    observation = world.observe(0)
+    seen = observation[:-2].reshape(-1, 6)
+    assert seen[:, GOAL].any() or seen[:, BOUND].any()
+
+
+def test_open_protocol_succeeds_on_coverage():
+    env = CoverageEnv("paper_matrix_a", protocol="open")
+    env.reset(seed=0)
+    assert env.layout.success_coverage == 0.95
+    assert not env.world.success
+    assert np.isclose(env.world.coverage, env.world.covered_coverable_pixels / env.world.coverable_pixels)
