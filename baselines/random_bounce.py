@@ -2,7 +2,7 @@
 
 Drive straight at full speed until the bumper fires, then turn on the spot by a random angle
 (uniform in ±[``min_turn``, π]) and drive on. The bumper fires on a new contact event
-(``info["collisions"]`` grows) or when the robot stalls (its measured forward speed, the
+(``info["collisions"]`` or, in a team, ``info["robot_collisions"]`` grows) or when the robot stalls (its measured forward speed, the
 observation's odometry entry, stays under a third of the command: pressed against a wall).
 It uses no lidar. Seeded from the episode seed and the robot's index.
 """
@@ -29,12 +29,12 @@ class RandomBounce(Baseline):
         super().reset(context, observation, info)
         self.rng = np.random.default_rng([context.seed, context.agent])
         self.turn_left = 0.0  # radians still to turn; the sign gives the direction
-        self.collisions = info.get("collisions", 0)
+        self.collisions = info.get("collisions", 0) + info.get("robot_collisions", 0)
         self.driving_steps = 0
 
     def act(self, observation: np.ndarray, info: dict) -> np.ndarray:
         robot = self.context.layout.robot
-        collisions = info.get("collisions", 0)
+        collisions = info.get("collisions", 0) + info.get("robot_collisions", 0)  # walls or team mates
         bumped = collisions > self.collisions
         stalled = self.driving_steps > 2 and observation[-2] < 1 / 3
         self.collisions = collisions

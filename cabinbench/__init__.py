@@ -30,4 +30,19 @@ def _register() -> None:
 
 _register()
 
-__all__ = ["Layout", "LayoutError", "available_layouts", "gym_id", "load_layout"]
+
+def parallel_env(**kwargs):
+    """The multi-robot PettingZoo ``ParallelEnv`` (:class:`cabinbench.envs.team_env.TeamCoverageEnv`)."""
+    from .envs.team_env import TeamCoverageEnv  # lazy: plain Gymnasium users need no PettingZoo
+
+    return TeamCoverageEnv(**kwargs)
+
+
+def env(**kwargs):
+    """The same multi-robot env in PettingZoo's AEC form (``parallel_to_aec`` of :func:`parallel_env`)."""
+    from pettingzoo.utils.conversions import parallel_to_aec
+
+    return parallel_to_aec(parallel_env(**kwargs))
+
+
+__all__ = ["Layout", "LayoutError", "available_layouts", "env", "gym_id", "load_layout", "parallel_env"]

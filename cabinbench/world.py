@@ -174,7 +174,7 @@ class World:
         self.velocities = np.zeros((self.n_robots, 2))  # (forward m/s, turn rad/s) commanded and achieved
         self._pending = [RobotEvents() for _ in range(self.n_robots)]
         for index in range(self.n_robots):
-            self._pending[index].new_coverable_pixels += self._stamp(index)
+            self._stamp(index)  # the start footprint is covered, but earns no step's reward
 
     def _set_bound(self, passage: int, solid: bool) -> None:
         """Close (solid) or open a passage's bounds, in physics and for the lidar alike."""

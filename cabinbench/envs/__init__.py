@@ -1,1 +1,1 @@
-"""The envs: single-robot Gymnasium (:mod:`.coverage_env`)."""
+"""The envs: one robot (Gymnasium, :mod:`.coverage_env`) and a team (PettingZoo, :mod:`.team_env`)."""
