@@ -38,6 +38,7 @@ import heapq
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from scipy import ndimage, sparse
@@ -84,13 +85,26 @@ def polyline_length(points: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()) if len(points) > 1 else 0.0
 
 
+def driving_time(waypoints: np.ndarray, max_speed: float, max_turn_rate: float) -> float:
+    """Time (s) to drive a polyline at full speed, turning in place at full rate at each waypoint.
+
+    A differential-drive robot in tight spaces turns in place at the corners, and on a
+    boustrophedon path those turns take about as long as the straight driving.
+    """
+    segments = np.diff(waypoints, axis=0)
+    segments = segments[np.any(segments != 0, axis=1)]
+    headings = np.arctan2(segments[:, 1], segments[:, 0])
+    turns = np.abs((np.diff(headings) + math.pi) % (2.0 * math.pi) - math.pi)
+    return polyline_length(waypoints) / max_speed + float(turns.sum()) / max_turn_rate
+
+
 # --------------------------------------------------------------------------------------------
 # Free space: segment checks, A*, geodesic distances
 # --------------------------------------------------------------------------------------------
 
 
 def crossed_pixels(start: np.ndarray, end: np.ndarray) -> np.ndarray:
-    """All pixels (row, col) that the segment start-end passes through or touches.
+    """The pixels (row, col) that the segment start-end passes through or touches (may repeat).
 
     Exact supercover: the parameters where the segment crosses pixel borders split it into
     pieces that each lie inside one pixel. The walk is done twice, with the segment shifted by a
@@ -116,7 +130,7 @@ def crossed_pixels(start: np.ndarray, end: np.ndarray) -> np.ndarray:
         t = np.unique(np.concatenate(crossings))
         middles = (t[:-1] + t[1:]) / 2.0
         pixels.append(np.floor(a + middles[:, None] * delta + 0.5).astype(int))
-    return np.unique(np.concatenate(pixels), axis=0)
+    return np.concatenate(pixels)
 
 
 def segment_is_free(free: np.ndarray, start: Sequence[float], end: Sequence[float]) -> bool:
@@ -135,8 +149,9 @@ class FreeSpace:
     moves only where both side pixels are free) as a sparse matrix for scipy's Dijkstra.
     """
 
-    def __init__(self, free: np.ndarray):
+    def __init__(self, free: np.ndarray, search_radius_px: float = math.inf):
         self.free = np.asarray(free, dtype=bool)
+        self.search_radius_px = search_radius_px
         height, width = self.free.shape
         self.padded_width = width + 2
         padded = np.zeros((height + 2, width + 2), dtype=bool)
@@ -144,9 +159,10 @@ class FreeSpace:
         self.free_flat = padded.ravel().tolist()
         self.node_id = np.full(self.free.shape, -1, dtype=np.int64)
         self.node_id[self.free] = np.arange(int(self.free.sum()))
-        self.graph = self._build_graph()
 
-    def _build_graph(self) -> sparse.csr_matrix:
+    @cached_property
+    def graph(self) -> sparse.csr_matrix:
+        """The 8-connected pixel graph (built on first use: A* alone does not need it)."""
         free, ids = self.free, self.node_id
         tails, heads, weights = [], [], []
 
@@ -251,8 +267,6 @@ class FreeSpace:
         distances = dijkstra(self.graph, directed=False, indices=unique_nodes, limit=radius)
         distances = distances[:, unique_nodes][np.ix_(inverse, inverse)]
         return np.where(np.isfinite(distances), distances, radius + cdist(pixels, pixels))
-
-    search_radius_px: float = math.inf
 
 
 def astar(centre_free: np.ndarray, start: Sequence[int], goal: Sequence[int]) -> np.ndarray | None:
@@ -385,18 +399,44 @@ def is_narrow(cell: Cell, tool_width: float, resolution: float) -> bool:
     return bool(widths.max() <= max_lane_spacing_px(tool_width, resolution) and length > widths.max())
 
 
-def lane_lines(cell: Cell, tool_width: float, resolution: float) -> np.ndarray:
-    """Lines of the lanes of an ordinary cell: evenly spread from the first to the last line.
+def faces_obstacle(cell: Cell, lines: np.ndarray, end: int) -> bool:
+    """True if the cell's first (end 0) or last (end 1) line borders blocked pixels beyond it.
 
-    With n = ceil(extent / spacing) gaps the lanes are extent / n apart, never more than one tool
-    width (in whole pixels, so rounding cannot push two lanes apart by more than that).
+    Such an end line needs a lane of its own: the strip of floor beyond it (an obstacle's face
+    or a wall) can only be reached from there. An end that only borders free pixels of the
+    neighbouring cells needs no lane, the lanes on both sides of the boundary reach across it.
     """
-    extent = cell.last_line - cell.first_line
-    gaps = math.ceil(extent / max_lane_spacing_px(tool_width, resolution))
-    return np.unique(np.round(np.linspace(cell.first_line, cell.last_line, gaps + 1)).astype(int))
+    line = cell.last_line if end else cell.first_line
+    beyond = line + 1 if end else line - 1
+    if not 0 <= beyond < lines.shape[0]:
+        return True
+    lo, hi = cell.interval(line)
+    return not lines[beyond, lo : hi + 1].all()
 
 
-def swaths(cell: Cell, tool_width: float, resolution: float) -> list[np.ndarray]:
+def lane_lines(cell: Cell, lines: np.ndarray, tool_width: float, resolution: float) -> np.ndarray:
+    """Lines of the lanes of an ordinary cell, at most one tool width apart.
+
+    An end line that faces an obstacle gets a lane; an end shared with free neighbouring cells
+    is left to within half a tool width, so that lanes on either side of a cell boundary are
+    never more than one tool width apart and cells do not double their boundary lanes. Between
+    the two outermost lanes, n = ceil(extent / spacing) gaps spread the lanes evenly; the spacing
+    is a whole number of pixels so rounding cannot push two lanes more than a tool width apart.
+    """
+    spacing = max_lane_spacing_px(tool_width, resolution)
+    inset = (spacing - 1) // 2
+    first, last = cell.first_line, cell.last_line
+    first_faces, last_faces = faces_obstacle(cell, lines, 0), faces_obstacle(cell, lines, 1)
+    low = first if first_faces else min(first + inset, last)
+    high = last if last_faces else max(last - inset, first)
+    if low > high:  # thinner than two insets: a single lane, on the facing end if there is one
+        lane = first if first_faces else last if last_faces else round((first + last) / 2)
+        return np.array([lane])
+    gaps = math.ceil((high - low) / spacing)
+    return np.unique(np.round(np.linspace(low, high, gaps + 1)).astype(int))
+
+
+def swaths(cell: Cell, centre_free: np.ndarray, tool_width: float, resolution: float) -> list[np.ndarray]:
     """The sweep lines of a cell as (line, position) polylines, ordered across the cell.
 
     Ordinary cell: one straight lane per line from ``lane_lines``, from lo to hi of that line's
@@ -408,7 +448,11 @@ def swaths(cell: Cell, tool_width: float, resolution: float) -> list[np.ndarray]
         if np.any(cell.intervals[:, 1] > cell.intervals[:, 0]):
             edges.append(boundary_walk(cell, side=1, from_line=cell.first_line, to_line=cell.last_line))
         return edges
-    return [np.array([[line, cell.interval(line)[0]], [line, cell.interval(line)[1]]]) for line in lane_lines(cell, tool_width, resolution)]
+    lanes = []
+    for line in lane_lines(cell, line_view(centre_free, cell.sweep_axis), tool_width, resolution):
+        lo, hi = cell.interval(line)
+        lanes.append(np.array([[line, lo], [line, hi]]))
+    return lanes
 
 
 def boundary_walk(cell: Cell, side: int, from_line: int, to_line: int) -> np.ndarray:
@@ -443,22 +487,27 @@ def drop_redundant_points(points: np.ndarray) -> np.ndarray:
 
 def simplify(points: np.ndarray, free: np.ndarray, tolerance: float) -> np.ndarray:
     """Douglas-Peucker simplification that only accepts chords lying on free pixels."""
-    if len(points) <= 2:
-        return points
-    start, end = points[0].astype(float), points[-1].astype(float)
-    chord = end - start
-    chord_length = math.hypot(chord[0], chord[1])
-    offsets = points[1:-1] - start
-    if chord_length > 0:
-        deviation = np.abs(offsets[:, 0] * chord[1] - offsets[:, 1] * chord[0]) / chord_length
-    else:
-        deviation = np.hypot(offsets[:, 0], offsets[:, 1])
-    farthest = int(np.argmax(deviation)) + 1
-    if deviation[farthest - 1] <= tolerance and segment_is_free(free, start, end):
-        return points[[0, -1]]
-    left = simplify(points[: farthest + 1], free, tolerance)
-    right = simplify(points[farthest:], free, tolerance)
-    return np.vstack((left, right[1:]))
+    keep = np.zeros(len(points), dtype=bool)
+    keep[[0, -1]] = True
+    stack = [(0, len(points) - 1)]
+    while stack:
+        first, last = stack.pop()
+        if last - first < 2:
+            continue
+        start, end = points[first].astype(float), points[last].astype(float)
+        chord = end - start
+        chord_length = math.hypot(chord[0], chord[1])
+        offsets = points[first + 1 : last] - start
+        if chord_length > 0:
+            deviation = np.abs(offsets[:, 0] * chord[1] - offsets[:, 1] * chord[0]) / chord_length
+        else:
+            deviation = np.hypot(offsets[:, 0], offsets[:, 1])
+        if deviation.max() <= tolerance and segment_is_free(free, start, end):
+            continue
+        farthest = first + 1 + int(np.argmax(deviation))
+        keep[farthest] = True
+        stack += [(first, farthest), (farthest, last)]
+    return points[keep]
 
 
 # --------------------------------------------------------------------------------------------
@@ -476,8 +525,11 @@ def cell_sweeps(cell: Cell, cell_swaths: list[np.ndarray], centre_free: np.ndarr
     """
     lines = line_view(centre_free, cell.sweep_axis)
     if narrow:
-        first_pass = [cell_swaths[0], cell_swaths[0][::-1]]
-        bases = [[edge] + [other[::-1] for other in cell_swaths[1:]] for edge in first_pass]
+        lo_edge, hi_edge = cell_swaths[0], cell_swaths[-1]
+        if len(cell_swaths) == 1:  # a single-pixel-wide cell: one pass, in either direction
+            bases = [[lo_edge], [lo_edge[::-1]]]
+        else:
+            bases = [[lo_edge, hi_edge[::-1]], [lo_edge[::-1], hi_edge]]
     else:
         bases = [_lanes_boustrophedon(cell, cell_swaths, start_side) for start_side in (0, 1)]
     sweeps = []
@@ -562,7 +614,10 @@ def route(
     # transit[a, v, b, w]: from the exit of cell a swept by variant v to the entry of b by w.
     transit = between[:, np.arange(variant_count) ^ 1]
 
-    groups = [[i for i in range(cell_count) if i not in last_cells], sorted(set(last_cells) & set(range(cell_count)))]
+    groups = [
+        [index for index in range(cell_count) if index not in last_cells],
+        sorted(set(last_cells) & set(range(cell_count))),
+    ]
     tour = _greedy(groups, start_to, transit, in_cell_length)
     group_end = len(groups[0])
     cost = _tour_cost(tour, start_to, transit, in_cell_length)
@@ -643,12 +698,17 @@ def _best_variants(order, start_to, transit, in_cell_length) -> list[tuple[int, 
 
 @dataclass
 class Plan:
-    """A coverage plan: ``waypoints`` (N, 2) in metres, starting at the start point."""
+    """A coverage plan: ``waypoints`` (N, 2) in metres, starting at the start point.
+
+    ``length`` is in metres, ``duration`` the estimated driving time in seconds (see
+    ``driving_time``), ``cell_order`` the indices of ``cells`` in the order they are swept.
+    """
 
     waypoints: np.ndarray
     cells: list[Cell]
     sweep_axis: int
     length: float
+    duration: float
     cell_order: list[int]
 
 
@@ -660,12 +720,16 @@ def plan_coverage(
     start: Sequence[float] = (0.0, 0.0),
     last_cells: Callable[[Cell], bool] | None = None,
     sweep_axis: int | None = None,
+    max_speed: float = 0.5,
+    max_turn_rate: float = 2.0,
 ) -> Plan:
     """Plan a path whose tool disc covers all the area reachable from ``start``.
 
     ``last_cells`` is a predicate on cells; the cells it selects are swept after all the others
     (e.g. the cells holding goal markers: ``lambda cell: cell.contains(*world_to_pixel(marker,
-    resolution, origin))``). ``sweep_axis`` None tries both axes and keeps the shorter plan.
+    resolution, origin))``). ``sweep_axis`` None tries both axes and keeps the plan with the
+    shorter estimated driving time at ``max_speed`` (m/s) and ``max_turn_rate`` (rad/s): turns
+    cost about as much as distance, so the shortest path is not always the quickest.
     The plan is restricted to the pixels 4-connected to the start (snapped to the nearest free
     pixel when it is not on one).
     """
@@ -675,17 +739,23 @@ def plan_coverage(
     start_pixel = _nearest_free_pixel(centre_free, world_to_pixel(start, resolution, origin))
     labels, _ = ndimage.label(centre_free)
     reachable = labels == labels[start_pixel]
-    free_space = FreeSpace(reachable)
-    free_space.search_radius_px = ROUTING_SEARCH_RADIUS_M / resolution
+    free_space = FreeSpace(reachable, search_radius_px=ROUTING_SEARCH_RADIUS_M / resolution)
     axes = (0, 1) if sweep_axis is None else (sweep_axis,)
-    plans = [
-        _plan_for_axis(free_space, axis, resolution, origin, tool_width, start, start_pixel, last_cells)
-        for axis in axes
-    ]
-    return min(plans, key=lambda plan: plan.length)
+    plans = []
+    for axis in axes:
+        cells, tour, pixel_path = _plan_for_axis(free_space, axis, resolution, tool_width, start_pixel, last_cells)
+        waypoints = np.vstack((np.asarray(start, dtype=float)[None, :], pixels_to_world(pixel_path, resolution, origin)))
+        # The start point may itself be the centre of its pixel.
+        waypoints = waypoints[np.concatenate(([True], np.any(np.diff(waypoints, axis=0) != 0, axis=1)))]
+        length = polyline_length(waypoints)
+        duration = driving_time(waypoints, max_speed, max_turn_rate)
+        cell_order = [cell_index for cell_index, _ in tour]
+        plans.append(Plan(waypoints, cells, axis, length, duration, cell_order))
+    return min(plans, key=lambda plan: plan.duration)
 
 
 def _nearest_free_pixel(centre_free: np.ndarray, pixel: tuple[int, int]) -> tuple[int, int]:
+    """The pixel itself if free (clamped into the raster), else the nearest free pixel."""
     row = min(max(pixel[0], 0), centre_free.shape[0] - 1)
     col = min(max(pixel[1], 0), centre_free.shape[1] - 1)
     if centre_free[row, col]:
@@ -694,27 +764,20 @@ def _nearest_free_pixel(centre_free: np.ndarray, pixel: tuple[int, int]) -> tupl
     return int(nearest_rows[row, col]), int(nearest_cols[row, col])
 
 
-def _plan_for_axis(free_space, sweep_axis, resolution, origin, tool_width, start, start_pixel, last_cells) -> Plan:
+def _plan_for_axis(free_space, sweep_axis, resolution, tool_width, start_pixel, last_cells):
+    """Decompose, sweep, route and join for one axis: the cells, the route and the pixel path."""
     max_jump = max_lane_spacing_px(tool_width, resolution) // 2
     cells = decompose(free_space.free, sweep_axis, max_jump=max_jump)
-    sweeps = [
-        cell_sweeps(cell, swaths(cell, tool_width, resolution), free_space.free, is_narrow(cell, tool_width, resolution))
-        for cell in cells
-    ]
+    sweeps = []
+    for cell in cells:
+        cell_swaths = swaths(cell, free_space.free, tool_width, resolution)
+        sweeps.append(cell_sweeps(cell, cell_swaths, free_space.free, is_narrow(cell, tool_width, resolution)))
     chosen_last = {index for index, cell in enumerate(cells) if last_cells is not None and last_cells(cell)}
     tour = route(sweeps, start_pixel, free_space.pairwise_distances, chosen_last)
     pieces = [np.array([start_pixel])]
+    position = start_pixel
     for cell_index, variant in tour:
         sweep = sweeps[cell_index][variant]
-        pieces.append(free_space.transit(tuple(pieces[-1][-1]), tuple(sweep[0]))[1:])
-        pieces.append(sweep[1:])
-    pixel_path = drop_redundant_points(np.vstack(pieces))
-    waypoints = np.vstack((np.asarray(start, dtype=float)[None, :], pixels_to_world(pixel_path, resolution, origin)))
-    waypoints = waypoints[np.concatenate(([True], np.any(np.diff(waypoints, axis=0) != 0, axis=1)))]
-    return Plan(
-        waypoints=waypoints,
-        cells=cells,
-        sweep_axis=sweep_axis,
-        length=polyline_length(waypoints),
-        cell_order=[cell_index for cell_index, _ in tour],
-    )
+        pieces += [free_space.transit(position, tuple(sweep[0])), sweep]
+        position = tuple(sweep[-1])
+    return cells, tour, drop_redundant_points(np.vstack(pieces))

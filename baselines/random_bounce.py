@@ -2,9 +2,10 @@
 
 Drive straight at full speed until the bumper fires, then turn on the spot by a random angle
 (uniform in ±[``min_turn``, π]) and drive on. The bumper fires on a new contact event
-(``info["collisions"]`` or, in a team, ``info["robot_collisions"]`` grows) or when the robot stalls (its measured forward speed, the
-observation's odometry entry, stays under a third of the command: pressed against a wall).
-It uses no lidar. Seeded from the episode seed and the robot's index.
+(``info["collisions"]`` or, in a team, ``info["robot_collisions"]`` grows) or when the robot
+stalls (its measured forward speed, the observation's odometry entry, stays under a third of the
+command: pressed against a wall). It uses no lidar. Seeded from the episode seed and the robot's
+index.
 """
 
 from __future__ import annotations

@@ -166,6 +166,13 @@ def fixed_transitions(num_envs: int = 256, num_steps: int = 8, seed: int = 7):
     return torch.cat(states), torch.cat(actions), torch.cat(next_states)
 
 
+def random_states(count: int, generator: torch.Generator) -> torch.Tensor:
+    """Uniform point-mass observations: relative goal position in [-2, 2]^2, velocity in [-1, 1]^2."""
+    goal = torch.rand(count, 2, generator=generator) * 4 - 2
+    velocity = torch.rand(count, 2, generator=generator) * 2 - 1
+    return torch.cat([goal, velocity], dim=-1)
+
+
 # ---------------------------------------------------------------------------------------------------------------------
 # Tests
 # ---------------------------------------------------------------------------------------------------------------------
@@ -199,19 +206,21 @@ def test_curiosity_forward_loss_decreases_on_fixed_data(demonstrations):
     alg = make_runner("ppo_icm", demonstrations).alg
     states, actions, next_states = fixed_transitions()
 
-    losses = [alg.update_curiosity(states, actions, next_states) for _ in range(30)]
+    losses = [alg.update_curiosity(states, actions, next_states) for _ in range(20)]
 
     assert losses[-1]["curiosity_forward"] < 0.5 * losses[0]["curiosity_forward"]
     assert losses[-1]["curiosity_inverse"] < losses[0]["curiosity_inverse"]
 
 
-def test_discriminator_separates_expert_from_random_actions(demonstrations, tmp_path):
+def test_discriminator_separates_expert_from_random_pairs(demonstrations, tmp_path):
     alg = make_runner("ppo_gail_only", demonstrations).alg
     generator = torch.Generator().manual_seed(3)
-    # Agent data: the expert's own states with random actions, so D must judge the action, not the state.
-    agent_states = alg.expert_observations
-    agent_actions = torch.rand(agent_states.shape[0], 2, generator=generator) * 2 - 1
-    for _ in range(30):
+    # Fixed agent data: random actions, half in random states and half in the expert's own states, so that D has to
+    # judge the action as well as the state.
+    num_expert = alg.expert_observations.shape[0]
+    agent_states = torch.cat([alg.expert_observations, random_states(num_expert, generator)])
+    agent_actions = torch.rand(2 * num_expert, 2, generator=generator) * 2 - 1
+    for _ in range(20):
         alg.update_discriminator(agent_states, agent_actions)
 
     held_out = tmp_path / "held_out.npz"
@@ -219,13 +228,16 @@ def test_discriminator_separates_expert_from_random_actions(demonstrations, tmp_
     states, actions = load_demonstrations(held_out, 4, 2)
     random_actions = torch.rand(actions.shape, generator=generator) * 2 - 1
     expert_reward = alg.discriminator.reward(states, actions)
-    random_reward = alg.discriminator.reward(states, random_actions)
+    random_reward = alg.discriminator.reward(random_states(states.shape[0], generator), random_actions)
+    random_action_reward = alg.discriminator.reward(states, random_actions)
 
     accuracy = 0.5 * ((expert_reward > 0).float().mean() + (random_reward < 0).float().mean())
     assert accuracy > 0.9
-    assert expert_reward.mean() > random_reward.mean()
-    assert (expert_reward > random_reward).float().mean() > 0.9
-    assert (random_reward < 0).any()  # the logit reward is a penalty where the agent does not look like the expert
+    # In the expert's states, the expert's action earns more than a random one.
+    assert expert_reward.mean() > random_action_reward.mean()
+    assert (expert_reward > random_action_reward).float().mean() > 0.9
+    # The logit reward is a penalty where the agent does not look like the expert, not a bonus for being alive.
+    assert (random_reward < 0).float().mean() > 0.5
 
 
 def test_ppo_gail_learns_to_reach_the_goal_from_demonstrations_alone(demonstrations):
@@ -256,6 +268,11 @@ def test_checkpoint_restores_icm_and_discriminator_with_weights_only_loading(dem
         assert _state_equal(getattr(restored.alg, module).state_dict(), getattr(trained.alg, module).state_dict())
         assert _state_equal(getattr(restored.alg, optimizer).state_dict(), getattr(trained.alg, optimizer).state_dict())
     assert _state_equal(restored.alg.actor.state_dict(), trained.alg.actor.state_dict())
+
+    # Evaluating the policy needs neither the demonstrations nor the reward modules.
+    policy_only = OnPolicyRunner(PointMassEnv(), make_train_cfg("ppo"), log_dir=None, device="cpu")
+    policy_only.alg.load(checkpoint, load_cfg=None, strict=True)
+    assert _state_equal(policy_only.alg.actor.state_dict(), trained.alg.actor.state_dict())
 
 
 def _state_equal(a, b) -> bool:
