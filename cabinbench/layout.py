@@ -33,6 +33,8 @@ from scipy import ndimage
 RESOLUTION = 0.05  # metres per coverage-raster pixel, the seed's map resolution
 LAYOUT_PATH_VARIABLE = "CABINBENCH_LAYOUT_PATH"
 MARKER_RADIUS = 0.08  # goal cubes and exit landmarks, as the lidar sees them
+CONTACT_CLEARANCE = 0.01  # metres: a reachable pose keeps this from walls, so covering needs no contact
+DEFAULT_SUCCESS_COVERAGE = 0.98  # "all coverable area covered", less the raster's rounding at edges
 
 
 class LayoutError(ValueError):
@@ -145,14 +147,28 @@ class Layout:
 
     @cached_property
     def clearance(self) -> np.ndarray:
-        """Distance in metres from each free pixel centre to the nearest solid edge (0 off the floor)."""
-        padded = np.pad(self.free_raster, 1, constant_values=False)  # the map edge is a wall
-        return (ndimage.distance_transform_edt(padded)[1:-1, 1:-1] - 0.5) * RESOLUTION
+        """Exact distance in metres from each free pixel centre to the nearest solid edge (0 off
+        the floor). Exact, not a distance transform: obstacle edges need not lie on pixel
+        boundaries, and half a pixel of error decides whether a robot fits a legroom gap."""
+        xs, ys = self.pixel_centres()
+        grid_x, grid_y = np.meshgrid(xs, ys)
+        points = np.column_stack([grid_x.ravel(), grid_y.ravel()])
+        starts, ends = self.walls[:, :2], self.walls[:, 2:]
+        direction = ends - starts
+        length_sq = np.maximum((direction**2).sum(axis=1), 1e-12)
+        nearest = np.full(len(points), np.inf)
+        for begin in range(0, len(points), 4096):  # chunks keep the (points x walls) arrays small
+            chunk = points[begin: begin + 4096, None, :]
+            t = np.clip(((chunk - starts) * direction).sum(axis=2) / length_sq, 0.0, 1.0)
+            offset = starts + t[..., None] * direction - chunk
+            nearest[begin: begin + 4096] = np.sqrt((offset**2).sum(axis=2)).min(axis=1)
+        return np.where(self.free_raster, nearest.reshape(grid_x.shape), 0.0)
 
     @cached_property
     def centre_free(self) -> np.ndarray:
-        """Pixels where the robot centre may be and that the start connects to."""
-        feasible = self.clearance >= self.robot.radius
+        """Pixels where the robot centre may be without touching anything (its disc keeps
+        ``CONTACT_CLEARANCE`` from every wall) and that the start connects to."""
+        feasible = self.clearance >= self.robot.radius + CONTACT_CLEARANCE
         labels, _ = ndimage.label(feasible, structure=np.ones((3, 3)))
         start_label = labels[self.to_pixel(*self.start[:2])]
         return labels == start_label if start_label else np.zeros_like(feasible)
@@ -301,7 +317,7 @@ def parse_layout(text: str, source: str = "<string>", default_name: str = "layou
         start=start,
         robot=robot,
         max_steps=check.positive_int(spec.get("max_steps", 3000), "max_steps"),
-        success_coverage=check.fraction(spec.get("success_coverage", 0.95), "success_coverage"),
+        success_coverage=check.fraction(spec.get("success_coverage", DEFAULT_SUCCESS_COVERAGE), "success_coverage"),
         cleared_cells=_cleared_cells(check, spec.get("cleared_cells", 0), len(cells)),
         parameters=dict(spec[kind]) if isinstance(spec[kind], dict) else {"map": spec[kind]},
     )
@@ -592,11 +608,12 @@ def _validate_geometry(check: _Checker, layout: Layout):
         check.fail("start", f"({x}, {y}) is inside an obstacle", "move the start onto free floor")
     if not layout.free_raster.any():
         check.fail("<geometry>", "the map has no free floor", "remove obstacles or enlarge the boundary")
-    if layout.clearance.max() < layout.robot.radius:
+    if layout.clearance.max() < layout.robot.radius + CONTACT_CLEARANCE:
         check.fail("robot.radius", f"the robot (diameter {layout.robot.tool_width} m) is wider than every gap",
                    "use a smaller robot or wider gaps")
-    if layout.clearance[layout.to_pixel(x, y)] < layout.robot.radius:
-        check.fail("start", f"({x}, {y}) is closer than the robot radius to an obstacle", "move the start into open floor")
+    if layout.clearance[layout.to_pixel(x, y)] < layout.robot.radius + CONTACT_CLEARANCE:
+        check.fail("start", f"({x}, {y}) is closer than the robot radius (+{CONTACT_CLEARANCE} m) to an obstacle",
+                   "move the start into open floor")
     for index, cell in enumerate(layout.cells):
         cxmin, cymin, cxmax, cymax = cell.rect
         if cxmin < xmin - 1e-9 or cymin < ymin - 1e-9 or cxmax > xmax + 1e-9 or cymax > ymax + 1e-9:

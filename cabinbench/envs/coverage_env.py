@@ -94,19 +94,25 @@ class CoverageEnv(gym.Env):
         return self.world.observe(0), self._info()
 
     def step(self, action):
-        if self.tracker is None:
-            raise RuntimeError("call reset() before step()")
-        events = self.world.step(checked_action(action))
-        self.tracker.update(events)
-        step_reward = reward(self.reward_preset, events, 0, self.world.coverable_pixels)
-        terminated = events.success or (self.terminate_on_bound and events.robots[0].bound_violations > 0)
-        truncated = not terminated and self.tracker.steps >= self.max_steps
+        step_reward, terminated, truncated = self.advance(checked_action(action))
         info = self._info()
         if terminated or truncated:
             info["episode_record"] = self.tracker.record()
         if self.render_mode == "human":
             self.render()
         return self.world.observe(0), step_reward, terminated, truncated, info
+
+    def advance(self, action: np.ndarray) -> tuple[float, bool, bool]:
+        """One step without building the observation and info: (reward, terminated, truncated).
+        ``action`` must already be checked. The batched env steps through this."""
+        if self.tracker is None:
+            raise RuntimeError("call reset() before step()")
+        events = self.world.step(action)
+        self.tracker.update(events)
+        step_reward = reward(self.reward_preset, events, 0, self.world.coverable_pixels)
+        terminated = events.success or (self.terminate_on_bound and events.robots[0].bound_violations > 0)
+        truncated = not terminated and self.tracker.steps >= self.max_steps
+        return step_reward, terminated, truncated
 
     def _info(self) -> dict:
         return {**self.tracker.running(), "pose": self.world.poses[0].copy()}

@@ -1,0 +1,75 @@
+"""The classic baselines in the real env: the planner covers cabins, the random walk does not."""
+
+import numpy as np
+import pytest
+
+from baselines.base import EpisodeContext, load_baseline
+from baselines.boustrophedon import plan_layout, record_demonstrations, team_share
+from baselines.ppo_gail.demonstrations import load_demonstrations
+from cabinbench.envs.coverage_env import CoverageEnv
+from cabinbench.layout import load_layout
+
+
+def run_episode(baseline_name, layout, protocol, seed=0, **env_kwargs):
+    env = CoverageEnv(layout, protocol=protocol, **env_kwargs)
+    observation, info = env.reset(seed=seed)
+    baseline = load_baseline(baseline_name)
+    baseline.reset(EpisodeContext(env.layout, protocol, seed), observation, info)
+    while True:
+        observation, _, terminated, truncated, info = env.step(baseline.act(observation, info))
+        if terminated or truncated:
+            return info["episode_record"]
+
+
+@pytest.mark.parametrize("protocol", ["sequential", "open"])
+def test_boustrophedon_covers_the_a320_cell(protocol):
+    record = run_episode("boustrophedon", "a320_cell", protocol)
+    assert record["success"] and record["coverage"] >= 0.98
+    assert record["bound_violations"] == 0 and record["collisions"] <= 2
+
+
+def test_boustrophedon_cleans_two_cells_in_order():
+    record = run_episode("boustrophedon", "shape_changed", "sequential")
+    assert record["success"] and record["cells_cleared"] == 2 and record["coverage"] >= 0.98
+    assert record["bound_violations"] == 0
+
+
+def test_random_bounce_covers_clearly_less_in_the_same_limit():
+    planner = run_episode("boustrophedon", "a320_cell", "open")
+    random = [run_episode("random_bounce", "a320_cell", "open", seed=seed) for seed in range(3)]
+    assert max(r["coverage"] for r in random) < planner["coverage"] - 0.15
+    assert all(r["time"] > planner["time"] for r in random)
+
+
+def test_full_cabin_plan_visits_every_cell_and_exit():
+    legs = plan_layout(load_layout("full_cabin"), "sequential")
+    assert [leg.cell for leg in legs if leg.purpose == "sweep"] == list(range(10))
+    assert sum(leg.purpose == "exit" for leg in legs) == 9
+    layout = load_layout("full_cabin")
+    starts, ends = layout.walls[:, :2], layout.walls[:, 2:]
+    for leg in legs:  # every waypoint is a pose where the robot's disc touches nothing
+        for point in leg.waypoints:
+            t = np.clip(((point - starts) * (ends - starts)).sum(1) / ((ends - starts) ** 2).sum(1), 0, 1)
+            clearance = np.hypot(*(starts + t[:, None] * (ends - starts) - point).T).min()
+            assert clearance > layout.robot.radius
+
+
+def test_team_shares_split_the_region_evenly():
+    layout = load_layout("full_cabin")
+    shares = [team_share(layout, layout.centre_free, agent, 4) for agent in range(4)]
+    assert np.array_equal(np.sum(shares, axis=0), layout.centre_free.astype(int))  # disjoint, complete
+    sizes = [share.sum() for share in shares]
+    assert max(sizes) / min(sizes) < 1.15  # strips end on whole raster columns
+
+
+def test_demonstrations_are_recorded_in_the_documented_schema(tmp_path):
+    path = tmp_path / "demos.npz"
+    summary = record_demonstrations("a320_cell", episodes=2, path=str(path), seed=3)
+    assert summary["success"] == 1.0
+    data = np.load(path, allow_pickle=False)
+    assert set(data.files) == {"observations", "actions", "episode", "observation_config"}
+    assert data["observations"].shape == (summary["steps"], 386) and data["actions"].shape == (summary["steps"], 2)
+    assert set(np.unique(data["episode"])) == {0, 1}
+    observations, actions = load_demonstrations([str(path)], observation_dim=386, action_dim=2)
+    assert observations.shape[0] == actions.shape[0] == summary["steps"]
+    assert np.abs(actions.numpy()).max() <= 1.0
