@@ -118,7 +118,9 @@ class Layout:
     @cached_property
     def raster_shape(self) -> tuple[int, int]:
         xmin, ymin, xmax, ymax = self.extent
-        return (max(1, round((ymax - ymin) / RESOLUTION)), max(1, round((xmax - xmin) / RESOLUTION)))
+        # ceil: the raster covers the whole map; a last partial pixel whose centre is off the
+        # map is simply not floor
+        return (max(1, math.ceil((ymax - ymin) / RESOLUTION - 1e-9)), max(1, math.ceil((xmax - xmin) / RESOLUTION - 1e-9)))
 
     @cached_property
     def origin(self) -> tuple[float, float]:
@@ -145,6 +147,20 @@ class Layout:
             free &= ~PolygonPath(polygon).contains_points(points)
         return free.reshape(grid_x.shape)
 
+    def distance_to_walls(self, points: np.ndarray) -> np.ndarray:
+        """Exact distance from each of ``points`` (N, 2) to the nearest solid edge."""
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        starts, ends = self.walls[:, :2], self.walls[:, 2:]
+        direction = ends - starts
+        length_sq = np.maximum((direction**2).sum(axis=1), 1e-12)
+        nearest = np.empty(len(points))
+        for begin in range(0, len(points), 4096):  # chunks keep the (points x walls) arrays small
+            chunk = points[begin: begin + 4096, None, :]
+            t = np.clip(((chunk - starts) * direction).sum(axis=2) / length_sq, 0.0, 1.0)
+            offset = starts + t[..., None] * direction - chunk
+            nearest[begin: begin + 4096] = np.sqrt((offset**2).sum(axis=2)).min(axis=1)
+        return nearest
+
     @cached_property
     def clearance(self) -> np.ndarray:
         """Exact distance in metres from each free pixel centre to the nearest solid edge (0 off
@@ -152,16 +168,7 @@ class Layout:
         boundaries, and half a pixel of error decides whether a robot fits a legroom gap."""
         xs, ys = self.pixel_centres()
         grid_x, grid_y = np.meshgrid(xs, ys)
-        points = np.column_stack([grid_x.ravel(), grid_y.ravel()])
-        starts, ends = self.walls[:, :2], self.walls[:, 2:]
-        direction = ends - starts
-        length_sq = np.maximum((direction**2).sum(axis=1), 1e-12)
-        nearest = np.full(len(points), np.inf)
-        for begin in range(0, len(points), 4096):  # chunks keep the (points x walls) arrays small
-            chunk = points[begin: begin + 4096, None, :]
-            t = np.clip(((chunk - starts) * direction).sum(axis=2) / length_sq, 0.0, 1.0)
-            offset = starts + t[..., None] * direction - chunk
-            nearest[begin: begin + 4096] = np.sqrt((offset**2).sum(axis=2)).min(axis=1)
+        nearest = self.distance_to_walls(np.column_stack([grid_x.ravel(), grid_y.ravel()]))
         return np.where(self.free_raster, nearest.reshape(grid_x.shape), 0.0)
 
     @cached_property
@@ -169,9 +176,13 @@ class Layout:
         """Pixels where the robot centre may be without touching anything (its disc keeps
         ``CONTACT_CLEARANCE`` from every wall) and that the start connects to."""
         feasible = self.clearance >= self.robot.radius + CONTACT_CLEARANCE
+        if not feasible.any():
+            return feasible
         labels, _ = ndimage.label(feasible, structure=np.ones((3, 3)))
-        start_label = labels[self.to_pixel(*self.start[:2])]
-        return labels == start_label if start_label else np.zeros_like(feasible)
+        # the start is checked exactly; its own pixel centre may still sit a little too close
+        _, (rows, cols) = ndimage.distance_transform_edt(~feasible, return_indices=True)
+        start_row, start_col = self.to_pixel(*self.start[:2])
+        return labels == labels[rows[start_row, start_col], cols[start_row, start_col]]
 
     @cached_property
     def coverable_raster(self) -> np.ndarray:
@@ -209,13 +220,15 @@ class Layout:
         actual cell size is the extent divided by their number.
         """
         cell_size = cell_size or self.robot.tool_width
-        rows, cols = self.raster_shape
-        grid_rows = max(1, round(rows * RESOLUTION / cell_size))
-        grid_cols = max(1, round(cols * RESOLUTION / cell_size))
-        row_of = (np.arange(rows) * grid_rows) // rows
-        col_of = (np.arange(cols) * grid_cols) // cols
+        xmin, ymin, xmax, ymax = self.extent
+        grid_rows = max(1, round((ymax - ymin) / cell_size))
+        grid_cols = max(1, round((xmax - xmin) / cell_size))
+        xs, ys = self.pixel_centres()
+        row_of = np.minimum(((ys - ymin) / (ymax - ymin) * grid_rows).astype(int), grid_rows - 1)
+        col_of = np.minimum(((xs - xmin) / (xmax - xmin) * grid_cols).astype(int), grid_cols - 1)
         occupied = np.zeros((grid_rows, grid_cols), dtype=bool)
-        blocked_rows, blocked_cols = np.nonzero(~self.free_raster)
+        on_map = (ys[:, None] < ymax) & (xs[None, :] < xmax)  # the raster's last partial pixels
+        blocked_rows, blocked_cols = np.nonzero(~self.free_raster & on_map)
         occupied[row_of[blocked_rows], col_of[blocked_cols]] = True
         return occupied
 
@@ -611,7 +624,7 @@ def _validate_geometry(check: _Checker, layout: Layout):
     if layout.clearance.max() < layout.robot.radius + CONTACT_CLEARANCE:
         check.fail("robot.radius", f"the robot (diameter {layout.robot.tool_width} m) is wider than every gap",
                    "use a smaller robot or wider gaps")
-    if layout.clearance[layout.to_pixel(x, y)] < layout.robot.radius + CONTACT_CLEARANCE:
+    if layout.distance_to_walls([x, y])[0] < layout.robot.radius + CONTACT_CLEARANCE:
         check.fail("start", f"({x}, {y}) is closer than the robot radius (+{CONTACT_CLEARANCE} m) to an obstacle",
                    "move the start into open floor")
     for index, cell in enumerate(layout.cells):

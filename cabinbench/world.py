@@ -164,6 +164,7 @@ class World:
             if cleared:
                 self._set_bound(cleared - 1, solid=False)
                 self.passage_open[cleared - 1] = True
+        self._refresh_markers()
 
         # Coverage state.
         self.pass_count = np.zeros(layout.raster_shape, dtype=np.uint16)
@@ -224,12 +225,16 @@ class World:
         """Advance one env step. ``actions`` is (K, 2) in [-1, 1]: (linear, angular)."""
         robot = self.layout.robot
         before = self.poses
+        for (x, y, heading), motor, (linear, angular) in zip(before, self.motors, actions):
+            speed, turn_rate = float(linear) * robot.max_speed, float(angular) * robot.max_turn_rate
+            # Aim at the mid-step heading: the straight chord of the arc that driving while turning
+            # traces, so one velocity per step is exact and the substeps need no Python.
+            aim = heading + turn_rate * TIME_STEP / 2
+            motor.position = (x, y)  # the motor leads from where the robot is, not where it was pushed
+            motor.velocity = (speed * math.cos(aim), speed * math.sin(aim))
+            motor.angular_velocity = turn_rate
         substep = TIME_STEP / PHYSICS_SUBSTEPS
         for _ in range(PHYSICS_SUBSTEPS):
-            for body, motor, (linear, angular) in zip(self.bodies, self.motors, actions):
-                speed = float(linear) * robot.max_speed  # re-aimed each substep: the robot turns while driving
-                motor.velocity = (speed * math.cos(body.angle), speed * math.sin(body.angle))
-                motor.angular_velocity = float(angular) * robot.max_turn_rate
             self.space.step(substep)
         after = self._read_poses()
         events = self._pending
@@ -286,6 +291,8 @@ class World:
         else:
             self.success = self.coverage >= self.layout.success_coverage
         events.success = self.success
+        if any(r.goals_reached or r.exits_reached for r in events.robots) or events.cells_cleared:
+            self._refresh_markers()
 
     def _cells_to_check(self) -> np.ndarray:
         """Uncleared cells that may have been completed: in sequential only the current one."""
@@ -325,23 +332,25 @@ class World:
     # ------------------------------------------------------------------------- observe
     def markers_visible(self) -> tuple[np.ndarray, np.ndarray]:
         """(goal visible, exit visible) flags for the lidar."""
+        goals = self.circle_on[: self.n_goals]
+        return goals, self.circle_on[self.n_goals: self.n_goals + self.n_exits]
+
+    def _refresh_markers(self) -> None:
+        """Recompute which goals and exits are shown; called whenever the protocol state changes."""
         goals = ~self.goal_reached
         if self.protocol == "sequential":
             goals &= self.goal_cell == self.current_cell
             exits = self.passage_open[self.exit_passage]
         else:
             exits = np.zeros(self.n_exits, dtype=bool)
-        return goals, exits
+        self.circle_on = np.concatenate([goals, exits, np.ones(self.n_robots, dtype=bool)])
 
     def observe(self, index: int) -> np.ndarray:
         """Local observation of robot ``index``: per ray [distance / range, one-hot tag] then
         [forward speed / max_speed, turn rate / max_turn_rate], clipped to [-1, 1]."""
         poses = self.poses
-        goals, exits = self.markers_visible()
-        robots = np.ones(self.n_robots, dtype=bool)
-        robots[index] = False
         self.circles[self.n_goals + self.n_exits:, :2] = poses[:, :2]
-        circle_on = np.concatenate([goals, exits, robots])
+        circle_on = self.circle_on  # the robot's own disc contains the ray origin: the kernel skips it
         x, y, heading = poses[index]
         cast_rays(x, y, heading, self.ray_angles, self.lidar.max_range, self.segments, self.segment_tags,
                   self.segment_on, self.circles, self.circle_tags, circle_on, self._distances, self._tags)

@@ -46,12 +46,8 @@ def test_full_cabin_plan_visits_every_cell_and_exit():
     assert [leg.cell for leg in legs if leg.purpose == "sweep"] == list(range(10))
     assert sum(leg.purpose == "exit" for leg in legs) == 9
     layout = load_layout("full_cabin")
-    starts, ends = layout.walls[:, :2], layout.walls[:, 2:]
     for leg in legs:  # every waypoint is a pose where the robot's disc touches nothing
-        for point in leg.waypoints:
-            t = np.clip(((point - starts) * (ends - starts)).sum(1) / ((ends - starts) ** 2).sum(1), 0, 1)
-            clearance = np.hypot(*(starts + t[:, None] * (ends - starts) - point).T).min()
-            assert clearance > layout.robot.radius
+        assert (layout.distance_to_walls(leg.waypoints) > layout.robot.radius).all()
 
 
 def test_team_shares_split_the_region_evenly():

@@ -108,6 +108,10 @@ def test_coverable_area_is_free_space_reachable_by_the_disc():
     layout = parse_layout(ROOM)
     coverable, free = layout.coverable_raster, layout.free_raster
     assert (coverable <= free).all()
-    # an open room is coverable right up to the walls, save the corners the disc cannot reach
-    assert 0.97 * layout.free_area < layout.coverable_area < layout.free_area
     assert np.isclose(layout.free_area, 3 * 2 - 0.6 * 0.4, atol=0.05)
+    # Poses sit on pixel centres 1 cm clear of walls, so coverage reaches to within one pixel
+    # (5 cm) of a wall, less the round scallops in corners the disc cannot reach.
+    away_from_walls = layout.clearance >= 0.075
+    missed = away_from_walls & ~coverable
+    assert missed.sum() < 0.02 * away_from_walls.sum()
+    assert 0.85 * layout.free_area < layout.coverable_area < 0.95 * layout.free_area

@@ -123,7 +123,7 @@ def test_robots_start_at_distinct_valid_poses(layout, n_agents):
 
 
 def test_too_many_robots_is_a_clear_error():
-    with pytest.raises(ValueError, match="room for only 11 robots"):
+    with pytest.raises(ValueError, match=r"room for only \d+ robots"):
         cabinbench.parallel_env(layout="paper_matrix_a", n_agents=12)
     with pytest.raises(ValueError, match="n_agents"):
         cabinbench.parallel_env(layout="a320_cell", n_agents=0)

@@ -20,15 +20,18 @@ from .coverage_env import CoverageEnv, checked_action
 
 class BatchedCoverageEnv:
     """Arguments as :class:`~.coverage_env.CoverageEnv` (minus rendering), plus ``num_envs`` and
-    ``seed``. ``step`` returns (observations [N, D] float32, rewards [N], terminated [N] bool,
-    truncated [N] bool, finished) where ``finished`` lists (env index, episode record) for every
-    env whose episode ended on this step (those envs are already reset)."""
+    ``seed``; ``layout`` may also be a list, env ``i`` then running ``layout[i % len(layout)]``
+    (e.g. the cleaning and the tracking cell in one batch). ``step`` returns (observations
+    [N, D] float32, rewards [N], terminated [N] bool, truncated [N] bool, finished) where
+    ``finished`` lists (env index, episode record) for every env whose episode ended on this step
+    (those envs are already reset)."""
 
     def __init__(self, layout="a320_cell", num_envs: int = 64, seed: int = 0, **env_kwargs):
-        self.envs = [CoverageEnv(layout, **env_kwargs) for _ in range(num_envs)]
+        layouts = layout if isinstance(layout, (list, tuple)) else [layout]
+        self.envs = [CoverageEnv(layouts[index % len(layouts)], **env_kwargs) for index in range(num_envs)]
         self.num_envs = num_envs
         self.layout = self.envs[0].layout
-        self.max_steps = self.envs[0].max_steps
+        self.max_steps = max(env.max_steps for env in self.envs)
         self.observation_size = self.envs[0].observation_space.shape[0]
         self.seed = seed
         self.observations = np.zeros((num_envs, self.observation_size), dtype=np.float32)
@@ -67,10 +70,10 @@ class RslRlVecEnv(VecEnv):
         self.env = batched
         self.num_envs = batched.num_envs
         self.num_actions = 2
-        self.max_episode_length = batched.max_steps
+        self.max_episode_length = torch.tensor([env.max_steps for env in batched.envs])
         self.episode_length_buf = torch.zeros(self.num_envs, dtype=torch.long)
         self.device = "cpu"
-        self.cfg = {"layout": batched.layout.name, "num_envs": batched.num_envs}
+        self.cfg = {"layouts": sorted({env.layout.name for env in batched.envs}), "num_envs": batched.num_envs}
         self._observations = torch.from_numpy(batched.observations.copy())
 
     def get_observations(self) -> TensorDict:

@@ -1,0 +1,182 @@
+"""The episode loop and the job runner.
+
+:func:`run_episode` plays one episode of a baseline on a layout. The baseline drives the robots
+only through the env's actions (never by moving them): one instance per robot, each told its seat
+in the team by :class:`~baselines.base.EpisodeContext`. One robot goes through the Gymnasium
+:class:`~cabinbench.envs.coverage_env.CoverageEnv`; a team (K > 1) through the PettingZoo
+``cabinbench.parallel_env``. Both are driven by the same loop in PettingZoo's dict form.
+
+Seeding scheme: a run with base seed ``S`` plays episode ``i`` with seed ``S + i``: the env is
+reset with it and every baseline instance gets it as ``context.seed``. An episode is therefore
+reproduced on its own by ``--seed S+i --episodes 1``, and two runs whose seed ranges overlap
+repeat the same episodes (the leaderboard shows episodes and distinct seeds side by side).
+
+:func:`run_jobs` is the one seam between the benchmark and whatever executes episodes: today a
+loop, or a local :class:`concurrent.futures.ProcessPoolExecutor` when ``workers > 1``; a sweep
+that outgrows one machine replaces this function (e.g. with Ray tasks) and nothing else.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+from collections.abc import Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from baselines.base import EpisodeContext, load_baseline
+
+from . import parallel_env
+from .envs.coverage_env import CoverageEnv
+from .layout import Layout, load_layout
+from .render import draw_frame
+
+EXIT_INTERRUPTED = 130  # the shell's status for a process ended by Ctrl-C
+
+
+@dataclass(frozen=True)
+class EpisodeJob:
+    """Everything a worker needs to play one episode (picklable: the layout travels by name/path)."""
+
+    baseline: str  # registered name or package.module:Class
+    layout: str  # registered name or YAML path
+    seed: int  # the run's base seed
+    episode: int  # index within the run; the episode's seed is seed + episode
+    protocol: str = "sequential"
+    n_agents: int = 1
+    env_kwargs: dict = field(default_factory=dict)  # reward, max_steps, lidar settings ...
+    baseline_config: dict = field(default_factory=dict)
+    frame_every: int | None = None  # render a frame every this many steps (None: no frames)
+
+    @property
+    def episode_seed(self) -> int:
+        return self.seed + self.episode
+
+
+@dataclass
+class EpisodeResult:
+    job: EpisodeJob
+    record: dict  # the env's episode_record: every metric of cabinbench.metrics
+    trajectory: dict  # see run_episode
+
+
+class _SingleAgentAsParallel:
+    """The Gymnasium env seen through PettingZoo's parallel (dict) API, so one loop drives both."""
+
+    agent = "robot_0"
+
+    def __init__(self, env: CoverageEnv):
+        self.env, self.agents = env, []
+
+    @property
+    def unwrapped(self) -> CoverageEnv:
+        return self.env.unwrapped
+
+    def reset(self, seed: int):
+        observation, info = self.env.reset(seed=seed)
+        self.agents = [self.agent]
+        return {self.agent: observation}, {self.agent: info}
+
+    def step(self, actions: dict):
+        observation, reward, terminated, truncated, info = self.env.step(actions[self.agent])
+        if terminated or truncated:
+            self.agents = []
+        return ({self.agent: observation}, {self.agent: reward}, {self.agent: terminated},
+                {self.agent: truncated}, {self.agent: info})
+
+    def close(self):
+        self.env.close()
+
+
+def make_env(layout: Layout, protocol: str, n_agents: int, env_kwargs: dict):
+    """The env for ``n_agents`` robots in PettingZoo's parallel API."""
+    if n_agents == 1:
+        return _SingleAgentAsParallel(CoverageEnv(layout, protocol=protocol, **env_kwargs))
+    team_kwargs = dict(env_kwargs)
+    if "max_steps" in team_kwargs:  # PettingZoo's name for the step limit
+        team_kwargs["max_cycles"] = team_kwargs.pop("max_steps")
+    return parallel_env(layout=layout, n_agents=n_agents, protocol=protocol, **team_kwargs)
+
+
+def run_episode(baseline_spec: str, layout: str | Layout, seed: int, protocol: str = "sequential",
+                n_agents: int = 1, env_kwargs: dict | None = None, config: dict | None = None,
+                frame_every: int | None = None) -> tuple[dict, dict]:
+    """Play one episode; return ``(record, trajectory)``.
+
+    ``seed`` seeds the env reset and every baseline instance (``context.seed``). ``record`` is the
+    env's ``episode_record``. ``trajectory`` holds full-resolution arrays: ``positions``
+    (steps + 1, K, 2) robot centres from ``info["pose"]``, ``coverage`` (steps + 1,) from
+    ``info["coverage"]``, ``pass_count`` (the final coverage raster, passes per pixel) and, when
+    ``frame_every`` is set, ``frames``: :func:`~cabinbench.render.draw_frame` pictures at the
+    start, every ``frame_every`` steps and at the end.
+    """
+    layout = layout if isinstance(layout, Layout) else load_layout(layout)
+    env_kwargs, config = dict(env_kwargs or {}), dict(config or {})
+    env = make_env(layout, protocol, n_agents, env_kwargs)
+    observations, infos = env.reset(seed=seed)
+    agents = list(env.agents)
+    baselines = [load_baseline(baseline_spec, **config) for _ in agents]
+    for index, (agent, baseline) in enumerate(zip(agents, baselines)):
+        context = EpisodeContext(layout, protocol, seed, agent=index, n_agents=n_agents, env_config=env_kwargs)
+        baseline.reset(context, observations[agent], infos[agent])
+
+    world = env.unwrapped.world
+    positions = [[infos[agent]["pose"][:2] for agent in agents]]
+    coverage = [infos[agents[0]]["coverage"]]
+    frames = [draw_frame(world)] if frame_every else None
+    steps = 0
+    while env.agents:
+        # Robots of a team all leave ``env.agents`` together, on the last step.
+        actions = {agent: baseline.act(observations[agent], infos[agent]) for agent, baseline in zip(agents, baselines)}
+        observations, _, _, _, infos = env.step(actions)
+        steps += 1
+        positions.append([infos[agent]["pose"][:2] for agent in agents])
+        coverage.append(infos[agents[0]]["coverage"])
+        if frame_every and (steps % frame_every == 0 or not env.agents):
+            frames.append(draw_frame(world, np.array(positions)))
+    record = next(infos[agent]["episode_record"] for agent in agents if "episode_record" in infos[agent])
+    trajectory = {
+        "positions": np.array(positions, dtype=np.float64),
+        "coverage": np.array(coverage, dtype=np.float64),
+        "pass_count": world.pass_count.copy(),
+    }
+    if frames is not None:
+        trajectory["frames"] = frames
+    env.close()
+    return record, trajectory
+
+
+def run_job(job: EpisodeJob) -> EpisodeResult:
+    """Play one job (a module-level function so that worker processes can receive it)."""
+    record, trajectory = run_episode(job.baseline, job.layout, job.episode_seed, job.protocol, job.n_agents,
+                                     job.env_kwargs, job.baseline_config, job.frame_every)
+    return EpisodeResult(job, record, trajectory)
+
+
+def _quit_on_interrupt() -> None:
+    # Ctrl-C reaches the whole process group. A worker just stops (its episode is lost anyway);
+    # the parent keeps what is finished. Without this every worker prints a traceback.
+    signal.signal(signal.SIGINT, lambda *_: os._exit(EXIT_INTERRUPTED))
+
+
+def run_jobs(jobs: Iterable[EpisodeJob], workers: int = 1) -> Iterator[EpisodeResult]:
+    """Run independent episode jobs, yielding each result as soon as it is finished.
+
+    ``workers <= 1``: in this process, in order. Otherwise a local process pool; results come in
+    completion order (each carries its job). When the consumer stops early, pending jobs are
+    cancelled. Ctrl-C in a terminal also stops the workers at once; a SIGINT sent to the parent
+    alone lets them finish the episodes in hand (not returned) before the process exits.
+    """
+    if workers <= 1:
+        for job in jobs:
+            yield run_job(job)
+        return
+    executor = ProcessPoolExecutor(max_workers=workers, initializer=_quit_on_interrupt)
+    try:
+        futures = [executor.submit(run_job, job) for job in jobs]
+        for future in as_completed(futures):
+            yield future.result()
+    finally:
+        executor.shutdown(wait=False, cancel_futures=True)

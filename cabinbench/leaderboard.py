@@ -1,0 +1,301 @@
+"""Regenerate the leaderboard from the per-episode records: ``python -m cabinbench.leaderboard``.
+
+    python -m cabinbench.leaderboard [--runs results/runs] [--out results]
+
+Reads every ``*.jsonl`` in ``--runs`` (and the ``.npz`` beside each, see :mod:`cabinbench.records`)
+and writes, from those files only:
+
+- ``<out>/leaderboard.md`` and ``<out>/leaderboard.csv``: one row per (layout, baseline,
+  protocol, K), sorted; per metric the mean and its 95% bootstrap interval (:mod:`cabinbench.stats`),
+  the interquartile mean of coverage, ``t90`` over the episodes that reached 90% with the fraction
+  that did, the number of episodes and of distinct episode seeds, and the layout's navigation
+  complexity (normalised and total). No timestamps: the same records give byte-identical files.
+- ``<out>/figures/``:
+  ``trajectory__<layout>__<baseline>__<protocol>__k<K>.png``: the first episode (lowest seed, then
+  episode index) drawn from its stored final coverage raster and sampled positions (the seed's
+  Fig. 5.11); ``coverage_time__<layout>.png``: coverage over simulated time, one line per
+  baseline (median over episodes, interquartile band); ``bars_coverage.png`` and
+  ``bars_time.png``: means with 95% interval error bars, grouped by layout.
+
+Exits 1 when there are no records.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib import colormaps
+from matplotlib.figure import Figure  # no pyplot: figures render with Agg, no window, no global state
+
+from .records import read_records, read_trajectories, safe_name
+from .render import COVERED, FLOOR, OBSTACLE, ROBOT_COLOURS
+from .stats import Summary, iqm, summarize
+from .world import TIME_STEP
+
+ROW_KEY = ["layout", "baseline", "protocol", "n_agents"]
+SORT_KEY = ["layout", "protocol", "n_agents", "baseline"]  # baselines side by side per setting
+# metric → (column title, format of its numbers)
+COLUMNS = {
+    "coverage": ("coverage", ".3f"),
+    "coverage_free": ("coverage_free", ".3f"),
+    "path_length": ("path_length (m)", ".1f"),
+    "path_efficiency": ("path_efficiency", ".3f"),
+    "time": ("time (s)", ".1f"),
+    "t90": ("t90 (s) [reached]", ".1f"),
+    "collisions": ("collisions", ".1f"),
+    "success": ("success", ".2f"),
+}
+CONFIG_FIELDS = ("layout_hash", "env_config", "baseline_config")  # should not differ within a row
+stored_run = lru_cache(maxsize=None)(read_trajectories)  # each .npz is read once per leaderboard
+PNG_METADATA = {"Software": None}  # keeps committed figures free of the matplotlib version string
+CURVE_POINTS = 200
+
+
+# ------------------------------------------------------------------------------------ rows
+def row_label(row) -> str:
+    """How a row is named in figures: the baseline, plus protocol and K when not the default."""
+    if row["protocol"] == "sequential" and row["n_agents"] == 1:
+        return str(row["baseline"])
+    return f"{row['baseline']} [{row['protocol']}, K={row['n_agents']}]"
+
+
+def group_rows(records: pd.DataFrame) -> list[tuple[dict, pd.DataFrame]]:
+    """(row key, its episodes sorted by seed, episode, file) for every row, in table order."""
+    records = records.sort_values(["seed", "episode", "source"], kind="stable")
+    groups = []
+    for values, episodes in records.groupby(ROW_KEY, sort=False):
+        groups.append((dict(zip(ROW_KEY, values)), episodes))
+    return sorted(groups, key=lambda group: tuple(group[0][name] for name in SORT_KEY))
+
+
+def summarize_row(key: dict, episodes: pd.DataFrame) -> dict:
+    """One leaderboard row: identifiers, counts, complexity, and a Summary per metric."""
+    complexity = episodes["layout_complexity"].iloc[0]
+    row = {
+        **key,
+        "episodes": len(episodes),
+        "seeds": int((episodes["seed"] + episodes["episode"]).nunique()),
+        "complexity_normalized": complexity["normalized"],
+        "complexity_total": complexity["total"],
+        "coverage_iqm": iqm(episodes["coverage"]),
+    }
+    for metric in COLUMNS:
+        row[metric] = summarize(metric, episodes[metric].tolist())
+    return row
+
+
+def mixed_settings(key: dict, episodes: pd.DataFrame) -> list[str]:
+    """Notes for rows that pool episodes run under different layouts files or settings."""
+    notes = []
+    for name in CONFIG_FIELDS:
+        distinct = sorted({repr(value) for value in episodes[name]})
+        if len(distinct) > 1:
+            notes.append(f"{row_name(key)} pools {len(distinct)} different `{name}` values: {', '.join(distinct)}")
+    return notes
+
+
+def row_name(key: dict) -> str:
+    return f"{key['layout']} / {key['baseline']} / {key['protocol']} / K={key['n_agents']}"
+
+
+# ---------------------------------------------------------------------------------- tables
+def csv_table(rows: list[dict]) -> pd.DataFrame:
+    table = []
+    for row in rows:
+        line = {name: row[name] for name in (*ROW_KEY, "episodes", "seeds", "complexity_normalized", "complexity_total")}
+        for metric in COLUMNS:
+            summary: Summary = row[metric]
+            line.update({f"{metric}_mean": summary.mean, f"{metric}_ci_low": summary.low, f"{metric}_ci_high": summary.high})
+            if metric == "coverage":
+                line["coverage_iqm"] = row["coverage_iqm"]
+            if summary.reached is not None:
+                line[f"{metric}_reached"] = summary.reached
+        table.append(line)
+    return pd.DataFrame(table)
+
+
+def markdown_cell(summary: Summary, number_format: str) -> str:
+    """``mean ± half-width of the 95% interval``; the mean alone when there is no interval."""
+    if np.isnan(summary.mean):
+        cell = "—"
+    elif np.isnan(summary.low):
+        cell = f"{summary.mean:{number_format}}"
+    else:
+        cell = f"{summary.mean:{number_format}} ± {(summary.high - summary.low) / 2:{number_format}}"
+    return cell if summary.reached is None else f"{cell} [{summary.reached:.0%}]"
+
+
+def markdown(rows: list[dict], records: pd.DataFrame, runs: str, command: str, notes: list[str]) -> str:
+    versions = ", ".join(sorted(set(records["benchmark_version"].astype(str))))
+    commits = sorted({str(commit)[:12] for commit in records["git_commit"] if isinstance(commit, str)})
+    lines = [
+        "# cabinbench leaderboard",
+        "",
+        f"Generated by `{command}` from the per-episode records in `{runs}`; do not edit by hand.",
+        "If you use these results, please cite cabinbench as described in `CITATION.cff` at the repository root.",
+        "",
+        f"{len(records)} episodes from {records['source'].nunique()} record files; benchmark version {versions}; "
+        f"code commits {', '.join(commits) if commits else 'unknown'}.",
+        "",
+        "Cells are `mean ± half-width of the 95% percentile-bootstrap interval` over episodes (exact, possibly "
+        "asymmetric bounds in `leaderboard.csv`); a lone episode has no interval. IQM: interquartile mean. "
+        "t90: mean over the episodes that reached 90% coverage, [the fraction that did]. Seeds: distinct episode "
+        "seeds (run seed + episode index). Complexity: the layout's navigation complexity (seed §4.1), "
+        "normalised / total. Metric definitions: `cabinbench/metrics.py`.",
+        "",
+    ]
+    titles = ["layout", "complexity", "baseline", "protocol", "K", "episodes", "seeds", "coverage", "coverage IQM",
+              *(title for metric, (title, _) in COLUMNS.items() if metric != "coverage")]
+    lines.append("| " + " | ".join(titles) + " |")
+    lines.append("|" + "|".join("---" if index < 5 else "---:" for index in range(len(titles))) + "|")
+    for row in rows:
+        cells = [row["layout"], f"{row['complexity_normalized']:.4f} / {row['complexity_total']:.2f}", row["baseline"],
+                 row["protocol"], str(row["n_agents"]), str(row["episodes"]), str(row["seeds"]),
+                 markdown_cell(row["coverage"], ".3f"), f"{row['coverage_iqm']:.3f}"]
+        cells += [markdown_cell(row[metric], number_format) for metric, (_, number_format) in COLUMNS.items()
+                  if metric != "coverage"]
+        lines.append("| " + " | ".join(cells) + " |")
+    if notes:
+        lines += ["", "Notes:", "", *(f"- {note}" for note in notes)]
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------------- figures
+def save_figure(figure: Figure, path: Path) -> None:
+    figure.tight_layout()
+    figure.savefig(path, dpi=120, metadata=PNG_METADATA)
+
+
+def trajectory_figure(key: dict, first: pd.Series, path: Path) -> None:
+    """The first episode: floor, obstacles, the covered area (from its stored final coverage
+    raster) and each robot's sampled path, with start (circle) and end (square)."""
+    stored = stored_run(first["source"])
+    episode = stored.episodes[int(first["episode"])]
+    image = np.empty((*stored.floor.shape, 3), dtype=np.uint8)
+    image[:] = OBSTACLE
+    image[stored.floor] = FLOOR
+    image[episode["pass_count"] > 0] = COVERED
+    left, right, bottom, top = stored.extent
+    figure = Figure(figsize=(min(16.0, max(4.0, (right - left) * 0.9)), max(3.0, (top - bottom) * 0.9 + 0.8)))
+    axes = figure.subplots()
+    axes.imshow(image, origin="lower", extent=stored.extent, interpolation="nearest")
+    for robot in range(episode["positions"].shape[1]):
+        colour = np.array(ROBOT_COLOURS[robot % len(ROBOT_COLOURS)]) / 255
+        path_xy = episode["positions"][:, robot]
+        axes.plot(path_xy[:, 0], path_xy[:, 1], color=colour, linewidth=0.8)
+        axes.plot(*path_xy[0], "o", color=colour, markersize=5)
+        axes.plot(*path_xy[-1], "s", color=colour, markersize=5)
+    axes.set_title(f"{row_name(key)}\nseed {first['seed'] + first['episode']}: coverage {first['coverage']:.3f} "
+                   f"in {first['time']:.0f} s", fontsize=9)
+    axes.set_xlabel("x (m)")
+    axes.set_ylabel("y (m)")
+    save_figure(figure, path)
+
+
+def coverage_curves(episodes: pd.DataFrame, times: np.ndarray) -> np.ndarray:
+    """(episodes, len(times)) coverage, each held at its final value after its episode ended."""
+    curves = []
+    for source, episode in zip(episodes["source"], episodes["episode"]):
+        stored = stored_run(source).episodes[int(episode)]
+        curves.append(np.interp(times, stored["steps"] * TIME_STEP, stored["coverage"]))
+    return np.array(curves)
+
+
+def coverage_time_figure(layout: str, groups: list[tuple[dict, pd.DataFrame]], colours: dict, path: Path) -> None:
+    """Coverage over simulated time on one layout: median over episodes and interquartile band."""
+    end = max(float(episodes["time"].max()) for _, episodes in groups)
+    times = np.linspace(0.0, end, CURVE_POINTS)
+    figure = Figure(figsize=(6.4, 4.0))
+    axes = figure.subplots()
+    for key, episodes in groups:
+        curves = coverage_curves(episodes, times)
+        low, median, high = np.percentile(curves, [25, 50, 75], axis=0)
+        colour = colours[row_label(key)]
+        axes.plot(times, median, color=colour, label=f"{row_label(key)} (n={len(episodes)})")
+        axes.fill_between(times, low, high, color=colour, alpha=0.25, linewidth=0)
+    axes.set_xlabel("simulated time (s)")
+    axes.set_ylabel("coverage")
+    axes.set_ylim(0, 1.02)
+    axes.set_title(f"{layout}: median and interquartile range over episodes", fontsize=10)
+    axes.legend(fontsize=8, loc="best")
+    axes.grid(alpha=0.3)
+    save_figure(figure, path)
+
+
+def bar_figure(rows: list[dict], metric: str, ylabel: str, colours: dict, path: Path) -> None:
+    """Means with 95% interval error bars; layouts along x, one bar per baseline setting."""
+    layouts = sorted({row["layout"] for row in rows})
+    labels = list(colours)
+    width = 0.8 / len(labels)
+    figure = Figure(figsize=(max(6.4, 1.2 * len(layouts) * max(1, len(labels) / 2)), 4.0))
+    axes = figure.subplots()
+    for index, label in enumerate(labels):
+        chosen = {row["layout"]: row[metric] for row in rows if row_label(row) == label}
+        positions = [layout_index + (index - (len(labels) - 1) / 2) * width
+                     for layout_index, layout in enumerate(layouts) if layout in chosen]
+        summaries = [chosen[layout] for layout in layouts if layout in chosen]
+        means = np.array([summary.mean for summary in summaries])
+        errors = np.nan_to_num(np.array([[summary.mean - summary.low, summary.high - summary.mean] for summary in summaries]).T)
+        axes.bar(positions, means, width, yerr=errors, capsize=3, label=label, color=colours[label])
+    axes.set_xticks(range(len(layouts)), layouts, rotation=20, ha="right")
+    axes.set_ylabel(ylabel)
+    axes.set_title(f"{metric}: mean and 95% bootstrap interval", fontsize=10)
+    axes.legend(fontsize=8)
+    axes.grid(axis="y", alpha=0.3)
+    save_figure(figure, path)
+
+
+def write_figures(groups: list[tuple[dict, pd.DataFrame]], rows: list[dict], folder: Path) -> list[Path]:
+    folder.mkdir(parents=True, exist_ok=True)
+    # One colour per baseline setting, the same in every figure.
+    colours = {label: colormaps["tab10"](index % 10) for index, label in enumerate(sorted({row_label(row) for row in rows}))}
+    written = []
+    for key, episodes in groups:
+        path = folder / f"trajectory__{'__'.join(safe_name(key[name]) for name in ('layout', 'baseline', 'protocol'))}__k{key['n_agents']}.png"
+        trajectory_figure(key, episodes.iloc[0], path)
+        written.append(path)
+    for layout in sorted({key["layout"] for key, _ in groups}):
+        path = folder / f"coverage_time__{safe_name(layout)}.png"
+        coverage_time_figure(layout, [group for group in groups if group[0]["layout"] == layout], colours, path)
+        written.append(path)
+    for metric, ylabel in (("coverage", "coverage"), ("time", "time (s)")):
+        path = folder / f"bars_{metric}.png"
+        bar_figure(rows, metric, ylabel, colours, path)
+        written.append(path)
+    return written
+
+
+# ------------------------------------------------------------------------------------ main
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m cabinbench.leaderboard", description="Regenerate the leaderboard tables and figures from the per-episode records.")
+    parser.add_argument("--runs", default="results/runs", help="folder of run records (default results/runs)")
+    parser.add_argument("--out", default="results", help="folder for leaderboard.{md,csv} and figures/ (default results)")
+    args = parser.parse_args(argv)
+    records = read_records(args.runs) if Path(args.runs).is_dir() else pd.DataFrame()
+    if records.empty:
+        print(f"no records in {args.runs}: run `python -m cabinbench.run ...` first", file=sys.stderr)
+        return 1
+    groups = group_rows(records)
+    rows = [summarize_row(key, episodes) for key, episodes in groups]
+    notes = [note for key, episodes in groups for note in mixed_settings(key, episodes)]
+    for note in notes:
+        print(f"warning: {note}", file=sys.stderr)
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    command = f"python -m cabinbench.leaderboard --runs {args.runs} --out {args.out}"
+    (out / "leaderboard.md").write_text(markdown(rows, records, args.runs, command, notes), encoding="utf-8")
+    csv_table(rows).to_csv(out / "leaderboard.csv", index=False, float_format="%.6g", lineterminator="\n")
+    figures = write_figures(groups, rows, out / "figures")
+    print(f"{len(rows)} rows from {len(records)} episodes: {out / 'leaderboard.md'}, {out / 'leaderboard.csv'}, "
+          f"{len(figures)} figures in {out / 'figures'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,239 @@
+"""The record format: one JSON object per episode, one file per run, trajectories beside it.
+
+A run writes ``<out>/<layout>__<baseline>__<protocol>__k<K>__seed<S>-<UTC time>.jsonl``. Each
+line is one finished episode with the fields of :data:`RECORD_FIELDS`, in that order, then every
+metric of :mod:`cabinbench.metrics` (``METRICS``, plus ``TEAM_METRICS`` for K > 1):
+
+- ``benchmark_version``: ``cabinbench.__version__``;
+- ``git_commit``: ``git rev-parse HEAD`` of the source tree, or null when that fails;
+- ``layout``, ``layout_hash`` (:attr:`Layout.content_hash`: the YAML text's SHA-256, 16 hex),
+  ``layout_complexity`` (``{"normalized": ..., "total": ...}``, seed §4.1);
+- ``baseline`` (the name or ``package.module:Class`` given), ``baseline_config`` (its settings);
+- ``protocol``, ``n_agents``;
+- ``seed`` (the run's base seed) and ``episode`` (index in the run): the episode's own seed is
+  ``seed + episode`` (see :mod:`cabinbench.episodes`);
+- ``env_config`` (reward preset, ``max_steps`` and any other env setting);
+- ``timestamp``: when the episode finished, ISO 8601 UTC.
+
+Lines are appended, flushed and fsynced one by one, so an interrupted run keeps every finished
+episode. The sibling ``.npz`` holds the map once, so that figures need nothing but the file:
+
+- ``floor`` (rows, cols) bool: the layout's free floor on the coverage raster;
+- ``origin`` (2,) float64 and ``resolution`` (): where pixel (0, 0) starts and its size (m);
+
+and each episode's trajectory under ``episode<i>_<array>``:
+
+- ``steps`` (n,) int32: the env steps sampled: every :data:`TRAJECTORY_STRIDE`-th and the last;
+- ``positions`` (n, K, 2) float32: robot centres (m) at those steps;
+- ``coverage`` (n,) float32: coverage at those steps;
+- ``pass_count`` (rows, cols) uint16: the final coverage raster (passes per pixel), from which
+  the leaderboard's trajectory maps are drawn exactly (no replay of the footprints).
+
+The ``.npz`` is compressed and rewritten after each episode to a temporary file that then
+replaces it (``os.replace``), so it is never half-written. Readers: :func:`read_records` and
+:func:`read_trajectories`.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import os
+import re
+import subprocess
+import warnings
+from collections.abc import Iterable
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from . import __version__
+from .complexity import layout_complexity
+from .layout import RESOLUTION, Layout
+
+RECORD_FIELDS = (
+    "benchmark_version", "git_commit", "layout", "layout_hash", "layout_complexity", "baseline",
+    "baseline_config", "protocol", "n_agents", "seed", "episode", "env_config", "timestamp",
+)
+TRAJECTORY_STRIDE = 5  # steps between stored positions: 0.25 m at full speed, under a robot radius
+
+
+@lru_cache(maxsize=1)
+def git_commit() -> str | None:
+    """The commit of the checkout this package runs from, or None (an installed copy, no git
+    binary ...); never raises. A checkout is only trusted when the package is its ``cabinbench/``
+    folder: an installed copy inside some other repository (a venv in a project) must not report
+    that repository's commit."""
+    package = Path(__file__).resolve().parent
+    try:
+        result = subprocess.run(["git", "rev-parse", "--show-toplevel", "HEAD"], cwd=package, capture_output=True,
+                                text=True, timeout=10, check=False)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    output = result.stdout.split()
+    if result.returncode != 0 or len(output) != 2 or Path(output[0]).resolve() / "cabinbench" != package:
+        return None
+    return output[1] if re.fullmatch(r"[0-9a-f]{40}", output[1]) else None
+
+
+def run_header(layout: Layout, baseline: str, baseline_config: dict, protocol: str, n_agents: int, seed: int,
+               env_config: dict) -> dict:
+    """The fields shared by every record of a run (all of RECORD_FIELDS but ``episode`` and ``timestamp``)."""
+    complexity = layout_complexity(layout)
+    return {
+        "benchmark_version": __version__,
+        "git_commit": git_commit(),
+        "layout": layout.name,
+        "layout_hash": layout.content_hash,
+        "layout_complexity": {"normalized": round(complexity.normalized, 6), "total": round(complexity.total, 6)},
+        "baseline": baseline,
+        "baseline_config": baseline_config,
+        "protocol": protocol,
+        "n_agents": n_agents,
+        "seed": seed,
+        "env_config": env_config,
+    }
+
+
+def safe_name(text) -> str:
+    """``text`` fit for a file name (a baseline given as ``pkg.mod:Class`` has a colon)."""
+    return re.sub(r"[^A-Za-z0-9_.-]+", "-", str(text))
+
+
+def run_path(out_dir: str | os.PathLike, header: dict) -> Path:
+    """A new records path ``<layout>__<baseline>__<protocol>__k<K>__seed<S>-<UTC time>.jsonl``."""
+    now = datetime.datetime.now(datetime.timezone.utc)
+    parts = [header["layout"], header["baseline"], header["protocol"], f"k{header['n_agents']}",
+             f"seed{header['seed']}-{now:%Y%m%dT%H%M%SZ}"]
+    stem = "__".join(map(safe_name, parts))
+    path = Path(out_dir) / f"{stem}.jsonl"
+    suffix = 1
+    while path.exists() or trajectory_path(path).exists():  # two runs in the same second
+        path = Path(out_dir) / f"{stem}-{suffix}.jsonl"
+        suffix += 1
+    return path
+
+
+def trajectory_path(records_path: str | os.PathLike) -> Path:
+    return Path(records_path).with_suffix(".npz")
+
+
+def downsample(trajectory: dict) -> dict:
+    """The stored form of :func:`~cabinbench.episodes.run_episode`'s trajectory (see module doc)."""
+    last = len(trajectory["coverage"]) - 1
+    steps = np.unique(np.append(np.arange(0, last + 1, TRAJECTORY_STRIDE), last)).astype(np.int32)
+    return {
+        "steps": steps,
+        "positions": trajectory["positions"][steps].astype(np.float32),
+        "coverage": trajectory["coverage"][steps].astype(np.float32),
+        "pass_count": trajectory["pass_count"].astype(np.uint16),
+    }
+
+
+class RunWriter:
+    """Writes one run: records appended line by line, trajectories kept in the sibling ``.npz``."""
+
+    def __init__(self, path: str | os.PathLike, header: dict, layout: Layout):
+        self.path, self.header = Path(path), header
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.trajectories: dict[str, np.ndarray] = {
+            "floor": layout.free_raster, "origin": np.array(layout.origin), "resolution": np.array(RESOLUTION),
+        }
+
+    @property
+    def trajectory_path(self) -> Path:
+        return trajectory_path(self.path)
+
+    def write(self, episode: int, metrics: dict, trajectory: dict) -> dict:
+        """Save one finished episode; return its record. The trajectory goes first, so that every
+        record line has its trajectory even if the run is killed in between."""
+        for name, array in downsample(trajectory).items():
+            self.trajectories[f"episode{episode}_{name}"] = array
+        self._save_trajectories()
+        timestamp = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+        record = {**self.header, "episode": episode, "timestamp": timestamp}
+        record = {name: record[name] for name in RECORD_FIELDS} | metrics
+        with open(self.path, "a", encoding="utf-8") as file:
+            file.write(json.dumps(record, default=_jsonable) + "\n")
+            file.flush()
+            os.fsync(file.fileno())
+        return record
+
+    def _save_trajectories(self) -> None:
+        temporary = self.trajectory_path.with_name(self.trajectory_path.name + ".tmp")
+        with open(temporary, "wb") as file:  # a file object: savez would append ".npz" to a name
+            np.savez_compressed(file, **self.trajectories)
+            file.flush()
+            os.fsync(file.fileno())
+        os.replace(temporary, self.trajectory_path)
+
+
+def _jsonable(value):
+    """numpy scalars and arrays inside records and configs."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return str(value)
+
+
+def record_files(paths_or_dirs: str | os.PathLike | Iterable[str | os.PathLike]) -> list[Path]:
+    """The ``.jsonl`` files named, or found (sorted) in the folders named."""
+    if isinstance(paths_or_dirs, (str, os.PathLike)):
+        paths_or_dirs = [paths_or_dirs]
+    files = []
+    for entry in map(Path, paths_or_dirs):
+        files.extend(sorted(entry.glob("*.jsonl")) if entry.is_dir() else [entry])
+    return files
+
+
+def read_records(paths_or_dirs: str | os.PathLike | Iterable[str | os.PathLike]) -> pd.DataFrame:
+    """Every record of the given files and folders as a DataFrame, one row per episode, in file
+    order; the column ``source`` names the file. A truncated last line (a run killed mid-write) is
+    skipped with a warning; a bad line anywhere else raises ``ValueError``."""
+    rows = []
+    for path in record_files(paths_or_dirs):
+        lines = path.read_text(encoding="utf-8").splitlines()
+        for number, line in enumerate(lines, start=1):
+            if not line.strip():
+                continue
+            try:
+                record = json.loads(line)
+            except json.JSONDecodeError as error:
+                if number == len(lines):
+                    warnings.warn(f"{path}:{number}: skipping a truncated last line ({error})", stacklevel=2)
+                    continue
+                raise ValueError(f"{path}:{number}: not a JSON record ({error})") from None
+            rows.append({**record, "source": str(path)})
+    return pd.DataFrame(rows)
+
+
+@dataclass
+class StoredRun:
+    """A run's ``.npz``: the map and each episode's trajectory (see the module doc)."""
+
+    floor: np.ndarray
+    origin: np.ndarray
+    resolution: float
+    episodes: dict[int, dict[str, np.ndarray]]  # episode index → steps, positions, coverage, pass_count
+
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """(left, right, bottom, top) in metres, as matplotlib's ``imshow`` takes it."""
+        rows, cols = self.floor.shape
+        x0, y0 = self.origin
+        return x0, x0 + cols * self.resolution, y0, y0 + rows * self.resolution
+
+
+def read_trajectories(records_path: str | os.PathLike) -> StoredRun:
+    """The ``.npz`` beside a records file."""
+    episodes: dict[int, dict[str, np.ndarray]] = {}
+    with np.load(trajectory_path(records_path)) as stored:
+        for key in stored.files:
+            if key.startswith("episode"):
+                episode, name = key.removeprefix("episode").split("_", 1)
+                episodes.setdefault(int(episode), {})[name] = stored[key]
+        return StoredRun(stored["floor"], stored["origin"], float(stored["resolution"]), episodes)

@@ -1,0 +1,172 @@
+"""Evaluate a baseline on a layout: ``python -m cabinbench.run --baseline NAME --layout NAME``.
+
+    python -m cabinbench.run --baseline NAME|pkg.mod:Class --layout NAME|FILE.yaml
+        [--episodes N] [--seed S] [--agents K] [--protocol sequential|open]
+        [--reward paper|coverage] [--max-steps N] [--config JSON] [--out DIR]
+        [--render FILE.png|FILE.gif] [--json] [--workers N]
+
+Plays N independent episodes (episode i is seeded with S + i), appends one record per finished
+episode to ``DIR/<layout>__<baseline>__<protocol>__k<K>__seed<S>-<time>.jsonl`` (trajectories
+in the sibling ``.npz``; format in :mod:`cabinbench.records`) and prints a table of per-metric
+means with 95% bootstrap intervals, or with ``--json`` one JSON object with the same numbers and
+the paths written. ``--render`` draws the first episode: a PNG of its final state (trajectory
+over the map, covered area shaded: the seed's Fig. 5.11) or an animated GIF.
+
+Exit status: 0 done; 2 bad arguments (unknown baseline or layout: the valid names are printed);
+130 interrupted by Ctrl-C (finished episodes are kept, and the message says where).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+from PIL import Image
+from tqdm import tqdm
+
+from baselines.base import BASELINES, load_baseline
+
+from .episodes import EXIT_INTERRUPTED, EpisodeJob, EpisodeResult, run_jobs
+from .layout import LayoutError, available_layouts, load_layout
+from .metrics import METRICS, TEAM_METRICS
+from .records import RunWriter, run_header, run_path
+from .stats import Summary, summarize
+from .world import PROTOCOLS
+
+GIF_FRAMES = 100  # frames spread over the step limit; the GIF stops early if the episode does
+GIF_FRAME_MS = 80
+EXIT_USAGE = 2
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog="python -m cabinbench.run", description="Evaluate a baseline on a layout; record every episode and summarise the metrics.")
+    parser.add_argument("--baseline", required=True, help=f"one of {', '.join(BASELINES)}, or package.module:Class")
+    parser.add_argument("--layout", required=True, help="a layout name (python -m cabinbench.layouts) or a YAML file")
+    parser.add_argument("--episodes", type=int, default=5, help="episodes to play (default 5)")
+    parser.add_argument("--seed", type=int, default=0, help="base seed; episode i uses seed + i (default 0)")
+    parser.add_argument("--agents", type=int, default=1, help="robots in the team, K (default 1)")
+    parser.add_argument("--protocol", choices=PROTOCOLS, default="sequential", help="cell by cell, or the whole layout open")
+    parser.add_argument("--reward", choices=("paper", "coverage"), default="paper", help="reward preset (learned baselines see it)")
+    parser.add_argument("--max-steps", type=int, default=None, help="step limit per episode (default: the layout's)")
+    parser.add_argument("--config", type=json.loads, default={}, metavar="JSON", help="baseline settings as a JSON object")
+    parser.add_argument("--out", default="results/runs", help="folder for the records (default results/runs)")
+    parser.add_argument("--render", metavar="FILE", help="draw the first episode to FILE.png or animate it to FILE.gif")
+    parser.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
+    parser.add_argument("--workers", type=int, default=1, help="episodes played in parallel by a local process pool")
+    args = parser.parse_args(argv)
+    if args.episodes < 1 or args.agents < 1 or args.workers < 1 or (args.max_steps is not None and args.max_steps < 1):
+        parser.error("--episodes, --agents, --workers and --max-steps must be positive")
+    if not isinstance(args.config, dict):
+        parser.error("--config must be a JSON object, e.g. '{\"min_turn\": 0.5}'")
+    if args.render and Path(args.render).suffix.lower() not in (".png", ".gif"):
+        parser.error("--render takes a .png or a .gif file name")
+    return args
+
+
+def collect(results, writer: RunWriter, total: int) -> tuple[list[EpisodeResult], bool]:
+    """Write each finished episode as it comes; return them and whether Ctrl-C cut the run short."""
+    finished = []
+    try:
+        with tqdm(total=total, unit="episode", file=sys.stderr, dynamic_ncols=True) as progress:
+            for result in results:
+                writer.write(result.job.episode, result.record, result.trajectory)
+                finished.append(result)
+                progress.set_postfix(coverage=f"{result.record['coverage']:.3f}")
+                progress.update()
+    except KeyboardInterrupt:
+        return finished, True
+    finally:
+        if hasattr(results, "close"):
+            results.close()  # stops the worker pool now rather than at garbage collection
+    return finished, False
+
+
+def summary_metrics(record: dict) -> list[str]:
+    """The metrics of a record that have one number per episode (not ``path_lengths``)."""
+    names = [name for name in (*METRICS, *TEAM_METRICS) if name in record and name != "n_agents"]
+    return [name for name in names if record[name] is None or isinstance(record[name], (bool, int, float))]
+
+
+def summarize_run(records: list[dict]) -> dict[str, Summary]:
+    return {name: summarize(name, [record[name] for record in records]) for name in summary_metrics(records[0])}
+
+
+def format_table(summaries: dict[str, Summary], title: str) -> str:
+    def number(value: float) -> str:
+        return "n/a" if math.isnan(value) else f"{value:.4g}"
+
+    lines = [title, f"{'metric':<18} {'mean':>10}   {'95% CI':<24} note", "-" * 64]
+    for name, summary in summaries.items():
+        interval = f"[{number(summary.low)}, {number(summary.high)}]"
+        note = f"reached in {summary.n} episodes ({summary.reached:.0%})" if summary.reached is not None else ""
+        lines.append(f"{name:<18} {number(summary.mean):>10}   {interval:<24} {note}".rstrip())
+    return "\n".join(lines)
+
+
+def save_render(frames: list, path: str) -> None:
+    """The last frame as a PNG, or all frames as a looping GIF that rests on the final state."""
+    images = [Image.fromarray(frame) for frame in frames]
+    if Path(path).suffix.lower() == ".png":
+        images[-1].save(path)
+        return
+    durations = [GIF_FRAME_MS] * (len(images) - 1) + [2000]
+    images[0].save(path, save_all=True, append_images=images[1:], duration=durations, loop=0)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    try:
+        layout = load_layout(args.layout)
+    except LayoutError as error:
+        print(f"error: {error}\nvalid layouts: {', '.join(available_layouts())}", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        baseline = load_baseline(args.baseline, **args.config)
+    except (ValueError, TypeError) as error:  # unknown name, or settings the class does not take
+        print(f"error: {error}\nvalid baselines: {', '.join(BASELINES)}", file=sys.stderr)
+        return EXIT_USAGE
+
+    max_steps = args.max_steps or layout.max_steps
+    env_config = {"reward": args.reward, "max_steps": max_steps}
+    header = run_header(layout, args.baseline, getattr(baseline, "config", args.config), args.protocol,
+                        args.agents, args.seed, env_config)
+    writer = RunWriter(run_path(args.out, header), header, layout)
+    frame_every = None  # frames of the first episode: a PNG needs only the last, a GIF about GIF_FRAMES
+    if args.render:
+        frame_every = max(1, max_steps // GIF_FRAMES) if Path(args.render).suffix.lower() == ".gif" else max_steps
+    jobs = [EpisodeJob(args.baseline, args.layout, args.seed, episode, args.protocol, args.agents, env_config,
+                       args.config, frame_every if episode == 0 else None)
+            for episode in range(args.episodes)]
+
+    finished, interrupted = collect(run_jobs(jobs, args.workers), writer, len(jobs))
+    if interrupted:
+        where = f"{writer.path} (trajectories: {writer.trajectory_path})" if finished else "nothing was written"
+        print(f"interrupted: {len(finished)} finished episode(s) kept; {where}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    if args.render:
+        first = next(result for result in finished if result.job.episode == 0)
+        save_render(first.trajectory["frames"], args.render)
+
+    records = [result.record for result in sorted(finished, key=lambda result: result.job.episode)]
+    summaries = summarize_run(records)
+    if args.json:
+        print(json.dumps({
+            "baseline": args.baseline, "layout": layout.name, "protocol": args.protocol, "n_agents": args.agents,
+            "episodes": len(records), "records": str(writer.path), "trajectories": str(writer.trajectory_path),
+            "render": args.render, "metrics": {name: summary.as_dict() for name, summary in summaries.items()},
+        }))
+    else:
+        title = (f"{args.baseline} on {layout.name} ({args.protocol}, K={args.agents}): {len(records)} episodes, "
+                 f"seeds {args.seed}..{args.seed + len(records) - 1}")
+        print(format_table(summaries, title))
+        print(f"\nrecords: {writer.path}\ntrajectories: {writer.trajectory_path}")
+        if args.render:
+            print(f"render: {args.render}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

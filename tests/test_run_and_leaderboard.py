@@ -1,0 +1,178 @@
+"""The runner, the record format, the statistics and the leaderboard, on real short episodes."""
+
+import contextlib
+import io
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from cabinbench import leaderboard, run
+from cabinbench.episodes import run_jobs
+from cabinbench.layout import available_layouts
+from cabinbench.metrics import METRICS, TEAM_METRICS
+from cabinbench.records import RECORD_FIELDS, read_records, read_trajectories
+from cabinbench.stats import iqm, mean_ci, reach_time
+
+SHORT = ["--baseline", "random_bounce", "--layout", "a320_cell", "--max-steps", "200"]
+VARYING = ("wall_time", "timestamp")  # the only fields allowed to differ between identical runs
+
+
+def run_main(argv: list[str]) -> tuple[int, str, str]:
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+        status = run.main(argv)
+    return status, stdout.getvalue(), stderr.getvalue()
+
+
+def stable(records: list[dict]) -> list[dict]:
+    """Records in episode order without the fields that depend on the clock."""
+    return [{k: v for k, v in record.items() if k not in VARYING}
+            for record in sorted(records, key=lambda record: record["episode"])]
+
+
+def lines(path: str) -> list[dict]:
+    return [json.loads(line) for line in Path(path).read_text().splitlines()]
+
+
+@pytest.fixture(scope="module")
+def short_run(tmp_path_factory):
+    """random_bounce on a320_cell, 3 episodes of 200 steps, with --json."""
+    out = tmp_path_factory.mktemp("runs")
+    status, stdout, _ = run_main([*SHORT, "--episodes", "3", "--out", str(out), "--json"])
+    assert status == 0
+    return json.loads(stdout)
+
+
+def test_records_have_every_field_and_metric(short_run):
+    records = lines(short_run["records"])
+    assert [record["episode"] for record in records] == [0, 1, 2]
+    for record in records:
+        assert list(record)[: len(RECORD_FIELDS)] == list(RECORD_FIELDS)
+        assert set(METRICS) <= set(record)
+        assert record["layout"] == "a320_cell" and record["baseline"] == "random_bounce"
+        assert record["seed"] == 0 and record["n_agents"] == 1 and record["protocol"] == "sequential"
+        assert record["steps"] == 200 and record["env_config"]["max_steps"] == 200
+        assert len(record["layout_hash"]) == 16
+        assert set(record["layout_complexity"]) == {"normalized", "total"}
+        assert record["git_commit"] is None or len(record["git_commit"]) == 40
+    stored = read_trajectories(short_run["records"])
+    assert sorted(stored.episodes) == [0, 1, 2]
+    episode = stored.episodes[0]
+    assert episode["positions"].dtype == np.float32 and episode["positions"].shape[1:] == (1, 2)
+    assert episode["steps"][0] == 0 and episode["steps"][-1] == 200
+    assert episode["coverage"][-1] == pytest.approx(records[0]["coverage"], abs=1e-6)
+    assert episode["pass_count"].shape == stored.floor.shape
+
+
+def test_json_summary(short_run):
+    assert short_run["episodes"] == 3
+    assert Path(short_run["records"]).is_file() and Path(short_run["trajectories"]).is_file()
+    coverage = short_run["metrics"]["coverage"]
+    assert coverage["n"] == 3 and coverage["ci_low"] <= coverage["mean"] <= coverage["ci_high"]
+    assert short_run["metrics"]["t90"]["reached"] == 0.0  # 200 steps of random motion never get there
+
+
+def test_same_seed_same_metrics_and_workers_agree(short_run, tmp_path):
+    status, stdout, _ = run_main([*SHORT, "--episodes", "3", "--out", str(tmp_path), "--json", "--workers", "2"])
+    assert status == 0
+    assert stable(lines(json.loads(stdout)["records"])) == stable(lines(short_run["records"]))
+
+
+def test_interrupt_keeps_finished_episodes(monkeypatch, tmp_path):
+    def interrupted_after_two(jobs, workers):
+        for index, result in enumerate(run_jobs(jobs, workers)):
+            if index == 2:
+                raise KeyboardInterrupt
+            yield result
+
+    monkeypatch.setattr(run, "run_jobs", interrupted_after_two)
+    status, _, stderr = run_main([*SHORT, "--episodes", "5", "--out", str(tmp_path)])
+    assert status == 130
+    [records_path] = tmp_path.glob("*.jsonl")
+    assert "2 finished episode(s) kept" in stderr and str(records_path) in stderr
+    assert [record["episode"] for record in lines(records_path)] == [0, 1]
+    assert sorted(read_trajectories(records_path).episodes) == [0, 1]
+
+
+def test_truncated_last_line_is_skipped(short_run, tmp_path):
+    text = Path(short_run["records"]).read_text()
+    broken = tmp_path / "broken.jsonl"
+    broken.write_text(text + text.splitlines()[0][:40])
+    with pytest.warns(UserWarning, match="truncated last line"):
+        frame = read_records(tmp_path)
+    assert len(frame) == 3 and set(frame["source"]) == {str(broken)}
+    broken.write_text(text.splitlines()[0][:40] + "\n" + text)
+    with pytest.raises(ValueError, match="broken.jsonl:1"):
+        read_records(broken)
+
+
+def test_unknown_names_exit_2_listing_valid_ones(tmp_path):
+    status, _, stderr = run_main(["--baseline", "no_such_planner", "--layout", "a320_cell", "--out", str(tmp_path)])
+    assert status == 2 and "random_bounce" in stderr and "boustrophedon" in stderr
+    result = subprocess.run([sys.executable, "-m", "cabinbench.run", "--baseline", "random_bounce", "--layout",
+                             "no_such_cabin", "--out", str(tmp_path)], capture_output=True, text=True)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert all(name in result.stderr for name in available_layouts())
+    assert not list(tmp_path.iterdir())  # nothing written
+
+
+@pytest.mark.parametrize("suffix", ["png", "gif"])
+def test_render(tmp_path, suffix):
+    picture = tmp_path / f"x.{suffix}"
+    status, stdout, _ = run_main([*SHORT, "--episodes", "1", "--out", str(tmp_path), "--render", str(picture)])
+    assert status == 0 and str(picture) in stdout
+    with Image.open(picture) as image:
+        assert image.width > 100 and image.height > 100
+        frames = getattr(image, "n_frames", 1)
+        assert frames == 1 if suffix == "png" else frames > 10
+
+
+def test_team_run_goes_through_the_parallel_env(tmp_path):
+    pytest.importorskip("cabinbench.envs.team_env", reason="the PettingZoo team env is not in this checkout")
+    status, stdout, _ = run_main([*SHORT, "--agents", "2", "--episodes", "1", "--out", str(tmp_path), "--json"])
+    assert status == 0
+    [record] = lines(json.loads(stdout)["records"])
+    assert record["n_agents"] == 2 and set(TEAM_METRICS) <= set(record) and len(record["path_lengths"]) == 2
+    assert read_trajectories(json.loads(stdout)["records"]).episodes[0]["positions"].shape[1:] == (2, 2)
+
+
+def test_leaderboard_is_reproducible(short_run, tmp_path):
+    runs = Path(short_run["records"]).parent
+    outputs = []
+    for _ in range(2):
+        assert leaderboard.main(["--runs", str(runs), "--out", str(tmp_path)]) == 0
+        outputs.append({path.relative_to(tmp_path): path.read_bytes() for path in sorted(tmp_path.rglob("*.*"))})
+    assert outputs[0] == outputs[1]
+    names = {str(path) for path in outputs[0]}
+    assert {"leaderboard.md", "leaderboard.csv", "figures/bars_coverage.png", "figures/bars_time.png",
+            "figures/coverage_time__a320_cell.png",
+            "figures/trajectory__a320_cell__random_bounce__sequential__k1.png"} <= names
+    table = (tmp_path / "leaderboard.md").read_text()
+    assert "CITATION.cff" in table and f"python -m cabinbench.leaderboard --runs {runs}" in table
+    assert "| a320_cell | 0.3011 / 23.19 | random_bounce | sequential | 1 | 3 | 3 |" in table
+
+
+def test_leaderboard_without_records_fails(tmp_path, capsys):
+    assert leaderboard.main(["--runs", str(tmp_path / "empty"), "--out", str(tmp_path)]) == 1
+    assert "no records" in capsys.readouterr().err
+
+
+def test_statistics_edge_cases():
+    lone = mean_ci([0.7])
+    assert lone.mean == 0.7 and lone.n == 1 and math.isnan(lone.low) and math.isnan(lone.high)
+    constant = mean_ci([True, True, True])
+    assert (constant.mean, constant.low, constant.high) == (1.0, 1.0, 1.0)
+    spread = mean_ci([0.1, 0.4, 0.5, 0.9])
+    assert spread.low < spread.mean < spread.high and spread == mean_ci([0.1, 0.4, 0.5, 0.9])  # fixed seed
+    assert iqm([0.0, 1.0, 1.0, 100.0]) == 1.0
+    times = reach_time([10.0, None, 30.0, None])
+    assert times.mean == 20.0 and times.reached == 0.5 and times.n == 2
+    never = reach_time([None, None])
+    assert math.isnan(never.mean) and never.reached == 0.0
+    assert never.as_dict()["mean"] is None
