@@ -15,7 +15,8 @@ and writes, from those files only:
   episode index) drawn from its stored final coverage raster and sampled positions (the seed's
   Fig. 5.11); ``coverage_time__<layout>.png``: coverage over simulated time, one line per
   baseline (median over episodes, interquartile band); ``bars_coverage.png`` and
-  ``bars_time.png``: means with 95% interval error bars, grouped by layout.
+  ``bars_time.png``: means with 95% interval error bars, grouped by layout;
+  ``makespan_agents.png``: team makespan against the number of robots (when several K were run).
 
 Exits 1 when there are no records.
 """
@@ -34,7 +35,7 @@ from matplotlib.figure import Figure  # no pyplot: figures render with Agg, no w
 
 from .records import read_records, read_trajectories, safe_name
 from .render import COVERED, FLOOR, OBSTACLE, ROBOT_COLOURS
-from .stats import Summary, iqm, summarize
+from .stats import Summary, iqm, mean_ci, summarize
 from .world import TIME_STEP
 
 ROW_KEY = ["layout", "baseline", "protocol", "n_agents"]
@@ -250,6 +251,33 @@ def bar_figure(rows: list[dict], metric: str, ylabel: str, colours: dict, path: 
     save_figure(figure, path)
 
 
+def makespan_figure(groups: list[tuple[dict, pd.DataFrame]], path: Path) -> bool:
+    """Team makespan (a single robot's: its episode time) against the number of robots, per
+    (layout, baseline, protocol) that was run with several K. False when there is nothing to draw."""
+    series: dict[tuple, list[tuple[int, Summary]]] = {}
+    for key, episodes in groups:
+        values = episodes["makespan"] if key["n_agents"] > 1 else episodes["time"]
+        series.setdefault((key["layout"], key["baseline"], key["protocol"]), []).append((key["n_agents"], mean_ci(values)))
+    series = {name: sorted(points) for name, points in series.items() if len(points) > 1}
+    if not series:
+        return False
+    figure = Figure(figsize=(6.4, 4.0))
+    axes = figure.subplots()
+    for (layout, baseline, protocol), points in sorted(series.items()):
+        agents = [k for k, _ in points]
+        means = np.array([summary.mean for _, summary in points])
+        errors = np.nan_to_num(np.array([[s.mean - s.low, s.high - s.mean] for _, s in points]).T)
+        axes.errorbar(agents, means, yerr=errors, marker="o", capsize=3, label=f"{layout} / {baseline} / {protocol}")
+    axes.set_xlabel("robots (K)")
+    axes.set_ylabel("makespan (simulated s)")
+    axes.set_xticks(sorted({k for points in series.values() for k, _ in points}))
+    axes.set_title("makespan against team size: mean and 95% bootstrap interval", fontsize=10)
+    axes.legend(fontsize=7)
+    axes.grid(alpha=0.3)
+    save_figure(figure, path)
+    return True
+
+
 def write_figures(groups: list[tuple[dict, pd.DataFrame]], rows: list[dict], folder: Path) -> list[Path]:
     folder.mkdir(parents=True, exist_ok=True)
     # One colour per baseline setting, the same in every figure.
@@ -267,6 +295,8 @@ def write_figures(groups: list[tuple[dict, pd.DataFrame]], rows: list[dict], fol
         path = folder / f"bars_{metric}.png"
         bar_figure(rows, metric, ylabel, colours, path)
         written.append(path)
+    if makespan_figure(groups, folder / "makespan_agents.png"):
+        written.append(folder / "makespan_agents.png")
     return written
 
 
