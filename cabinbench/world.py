@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pymunk
+from numba import njit
 
 from .coverage import stamp_footprint
 from .layout import MARKER_RADIUS, RESOLUTION, Layout
@@ -96,6 +97,8 @@ class World:
         self.cell_of = layout.cell_raster
         self.coverable_by_cell = np.bincount(self.cell_of[self.coverable_mask & (self.cell_of >= 0)], minlength=len(layout.cells))
         self.coverable_pixels = int(self.coverable_mask.sum())
+        self.cell_has_goals = np.bincount(self.goal_cell, minlength=len(layout.cells)) > 0
+        self._marker_hits = np.full(max(self.n_goals, self.n_exits, 1), -1, dtype=np.int64)
         self._distances = np.zeros(lidar.n_rays)
         self._tags = np.zeros(lidar.n_rays, dtype=np.int8)
 
@@ -239,14 +242,12 @@ class World:
         after = self._read_poses()
         events = self._pending
         self._pending = [RobotEvents() for _ in range(self.n_robots)]
-        for index in range(self.n_robots):
-            moved = after[index, :2] - before[index, :2]
-            turned = _wrap(after[index, 2] - before[index, 2])
-            heading = before[index, 2]
-            events[index].distance = float(np.hypot(*moved))
-            events[index].rotation = float(abs(turned))
+        for index, ((x0, y0, heading), (x1, y1, heading1)) in enumerate(zip(before.tolist(), after.tolist())):
+            turned = _wrap(heading1 - heading)
+            events[index].distance = math.hypot(x1 - x0, y1 - y0)
+            events[index].rotation = abs(turned)
             self.velocities[index] = (
-                (moved[0] * math.cos(heading) + moved[1] * math.sin(heading)) / TIME_STEP,
+                ((x1 - x0) * math.cos(heading) + (y1 - y0) * math.sin(heading)) / TIME_STEP,
                 turned / TIME_STEP,
             )
             events[index].new_coverable_pixels += self._stamp(index)
@@ -268,17 +269,11 @@ class World:
 
     def _update_protocol(self, events: StepEvents, poses: np.ndarray) -> None:
         reach = self._radius  # a marker is reached when it is under the robot's footprint
-        positions = poses[:, :2]
-        goals, _ = self.markers_visible()
-        candidates = np.flatnonzero(goals)
-        if len(candidates):
-            offsets = self.circles[candidates, None, :2] - positions[None, :, :]  # (goals, robots, 2)
-            distances = np.sqrt((offsets**2).sum(axis=2))
-            for goal, distances_to_robots in zip(candidates, distances):
-                if distances_to_robots.min() <= reach:
-                    self.goal_reached[goal] = True
-                    events.robots[int(distances_to_robots.argmin())].goals_reached += 1
-        for cell in self._cells_to_check():
+        goals_hit = markers_reached(self.circles, self.circle_on, 0, self.n_goals, poses, reach, self._marker_hits)
+        for goal in np.flatnonzero(self._marker_hits[: self.n_goals] >= 0) if goals_hit else ():
+            self.goal_reached[goal] = True
+            events.robots[self._marker_hits[goal]].goals_reached += 1
+        for cell in self._cells_to_check(goals_changed=goals_hit > 0):
             if self._cell_done(cell):
                 self.cell_cleared[cell] = True
                 events.cells_cleared += 1
@@ -286,7 +281,7 @@ class World:
                     self._set_bound(cell, solid=False)
                     self.passage_open[cell] = True
         if self.protocol == "sequential":
-            self._advance_through_exits(events, positions, reach)
+            self._advance_through_exits(events, poses, reach)
             self.success = bool(self.cell_cleared.all())
         else:
             self.success = self.coverage >= self.layout.success_coverage
@@ -294,30 +289,28 @@ class World:
         if any(r.goals_reached or r.exits_reached for r in events.robots) or events.cells_cleared:
             self._refresh_markers()
 
-    def _cells_to_check(self) -> np.ndarray:
-        """Uncleared cells that may have been completed: in sequential only the current one."""
-        if self.protocol == "sequential":
-            current = self.current_cell
-            return np.array([current]) if not self.cell_cleared[current] else np.zeros(0, int)
-        return np.flatnonzero(~self.cell_cleared)
+    def _cells_to_check(self, goals_changed: bool) -> list[int]:
+        """Uncleared cells that may have been completed this step: those with goals only when a
+        goal was reached; in sequential only the current cell."""
+        cells = [self.current_cell] if self.protocol == "sequential" else range(len(self.cell_cleared))
+        return [cell for cell in cells if not self.cell_cleared[cell] and (goals_changed or not self.cell_has_goals[cell])]
 
     def _cell_done(self, cell: int) -> bool:
-        goals = self.goal_cell == cell
-        if goals.any():
-            return bool(self.goal_reached[goals].all())
+        if self.cell_has_goals[cell]:
+            return bool(self.goal_reached[self.goal_cell == cell].all())
         return self.covered_by_cell[cell] >= self.layout.success_coverage * self.coverable_by_cell[cell]
 
-    def _advance_through_exits(self, events: StepEvents, positions: np.ndarray, reach: float) -> None:
+    def _advance_through_exits(self, events: StepEvents, poses: np.ndarray, reach: float) -> None:
         passage = self.current_cell
         if passage < len(self.layout.passages) and self.passage_open[passage]:
-            exits = np.flatnonzero(self.exit_passage == passage)
-            for index, position in enumerate(positions):
-                if np.hypot(*(self.circles[self.n_goals + exits, :2] - position).T).min() <= reach:
-                    events.robots[index].exits_reached += 1
-                    self.current_cell += 1
-                    self.passage_open[passage] = False  # exits vanish; the bound closes once all are through
-                    self.passage_closing = passage
-                    break
+            # only the open passage's exits are shown, so any hit is one of them
+            if markers_reached(self.circles, self.circle_on, self.n_goals, self.n_exits, poses, reach, self._marker_hits):
+                robot = int(self._marker_hits[: self.n_exits][self._marker_hits[: self.n_exits] >= 0][0])
+                events.robots[robot].exits_reached += 1
+                self.current_cell += 1
+                self.passage_open[passage] = False  # exits vanish; the bound closes once all are through
+                self.passage_closing = passage
+        positions = poses[:, :2]
         if self.passage_closing >= 0 and self._all_through(self.passage_closing, positions):
             self._set_bound(self.passage_closing, solid=True)
             self.passage_closing = -1
@@ -364,6 +357,25 @@ class World:
         observation[-2] = min(1.0, max(-1.0, self.velocities[index, 0] / robot.max_speed))
         observation[-1] = min(1.0, max(-1.0, self.velocities[index, 1] / robot.max_turn_rate))
         return observation
+
+
+@njit(cache=True)
+def markers_reached(circles, circle_on, first, count, poses, reach, hits):
+    """For markers ``first .. first + count - 1`` that are shown: ``hits[m - first]`` = the index of
+    the first robot whose centre is within ``reach`` of it, else -1. Returns how many were hit."""
+    reach_sq = reach * reach
+    n_hit = 0
+    for m in range(count):
+        hits[m] = -1
+        if not circle_on[first + m]:
+            continue
+        for robot in range(poses.shape[0]):
+            dx, dy = poses[robot, 0] - circles[first + m, 0], poses[robot, 1] - circles[first + m, 1]
+            if dx * dx + dy * dy <= reach_sq:
+                hits[m] = robot
+                n_hit += 1
+                break
+    return n_hit
 
 
 def _wrap(angle: float) -> float:

@@ -97,3 +97,25 @@ def test_bad_actions_are_clipped_or_refused():
     np.testing.assert_allclose(clipped, unit)
     with pytest.raises(ValueError, match="NaN"):
         env.step([np.nan, 0.0])
+
+
+def test_batched_env_matches_single_envs_and_does_not_depend_on_workers():
+    import torch
+
+    from cabinbench.envs.batched import BatchedCoverageEnv
+
+    actions = torch.from_numpy(np.random.default_rng(0).uniform(-1, 1, (120, 4, 2)))
+    runs = []
+    for workers in (1, 2):
+        with BatchedCoverageEnv(["a320_cell", "a320_tracking_cell"], num_envs=4, seed=5, num_workers=workers, max_steps=50) as env:
+            steps = [env.step(action) for action in actions]
+        runs.append((torch.stack([s[0] for s in steps]), torch.stack([s[1] for s in steps]), [s[4] for s in steps]))
+    assert torch.equal(runs[0][0], runs[1][0]) and torch.equal(runs[0][1], runs[1][1])
+    finished = [item for step in runs[0][2] for item in step]
+    assert len(finished) == 8  # every env truncates at 50 steps, twice in 120
+    # env 1 of the batch behaves as a single env seeded 5 + 1 on the tracking cell
+    single = gym.make("CabinBench/A320TrackingCell-v0", max_steps=50).unwrapped
+    single.reset(seed=6)
+    for action, batched_observation in zip(actions[:40, 1], runs[0][0][:40, 1]):
+        observation = single.step(action.numpy())[0]
+        np.testing.assert_array_equal(observation, batched_observation.numpy())
