@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Regenerate every committed result: the recorded runs, the leaderboard, its figures and the paper.
+# Usage: bash results/make_results.sh   (from the repository root; about 15 minutes on 2 cores)
+set -euo pipefail
+rm -rf results/runs results/figures
+# 20 episodes per setting: 5 runs (seeds 0, 100, ..., 400) of 4 episodes (episode i uses seed + i)
+run() { for seed in 0 100 200 300 400; do python -m cabinbench.run --episodes 4 --seed "$seed" --out results/runs "$@" > /dev/null; done; }
+
+# Classic baselines on the four cabin layouts, both protocols.
+for layout in a320_cell shape_changed b777_3col full_cabin; do
+  for protocol in sequential open; do
+    for baseline in random_bounce boustrophedon; do
+      run --baseline "$baseline" --layout "$layout" --protocol "$protocol"
+    done
+  done
+done
+
+# Teams: K = 1, 2, 4 on the two large layouts (K = 1 is recorded above).
+for layout in full_cabin b777_3col; do
+  for agents in 2 4; do
+    for baseline in random_bounce boustrophedon; do
+      for seed in 0 100; do
+        python -m cabinbench.run --episodes 5 --seed "$seed" --agents "$agents" --baseline "$baseline" --layout "$layout" --out results/runs > /dev/null
+      done
+    done
+  done
+done
+
+# Learned policies (shipped checkpoints), zero-shot on all but the training cell.
+for baseline in ppo_gail ppo ppo_icm ppo_gail_only; do
+  if [ -f "baselines/ppo_gail/checkpoints/$baseline.pt" ]; then
+    for layout in a320_cell shape_changed b777_3col full_cabin; do
+      run --baseline "$baseline" --layout "$layout" --protocol sequential
+    done
+  fi
+done
+
+python -m cabinbench.leaderboard
+python -m cabinbench.paper
