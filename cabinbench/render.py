@@ -68,6 +68,33 @@ def draw_frame(world: World, trajectories: np.ndarray | None = None, scale: int 
     return np.asarray(picture)
 
 
+class EnvRenderer:
+    """An env's ``render()`` and ``close()`` for its ``render_mode``: ``rgb_array`` returns the
+    frame, ``human`` shows it in a window and returns None, no mode warns and returns None."""
+
+    def __init__(self, render_mode: str | None):
+        self.render_mode = render_mode
+        self.viewer: HumanViewer | None = None
+
+    def render(self, world: World, trajectories: np.ndarray | None):
+        if self.render_mode is None:
+            import gymnasium
+
+            gymnasium.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        frame = draw_frame(world, trajectories)
+        if self.render_mode == "rgb_array":
+            return frame
+        self.viewer = self.viewer or HumanViewer()
+        self.viewer.show(frame)
+        return None
+
+    def close(self) -> None:
+        if self.viewer is not None:
+            self.viewer.close()
+            self.viewer = None
+
+
 class HumanViewer:
     """A matplotlib window that shows frames as they come (``render_mode="human"``)."""
 

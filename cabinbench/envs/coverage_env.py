@@ -45,7 +45,7 @@ import numpy as np
 from ..layout import Layout, load_layout
 from ..lidar import LidarConfig
 from ..metrics import EpisodeTracker
-from ..render import HumanViewer, draw_frame
+from ..render import EnvRenderer
 from ..rewards import REWARD_PRESETS, reward
 from ..world import World
 
@@ -83,7 +83,7 @@ class CoverageEnv(gym.Env):
         self.observation_space = observation_space(self.world.observation_size)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (2,), np.float32)
         self.tracker: EpisodeTracker | None = None
-        self._viewer: HumanViewer | None = None
+        self.renderer = EnvRenderer(render_mode)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -118,18 +118,8 @@ class CoverageEnv(gym.Env):
         return {**self.tracker.running(), "pose": self.world.poses[0].copy()}
 
     def render(self):
-        if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
-            return None
-        frame = draw_frame(self.world, self.tracker.trajectory() if self.tracker else None)
-        if self.render_mode == "rgb_array":
-            return frame
-        self._viewer = self._viewer or HumanViewer()
-        self._viewer.show(frame)
-        return None
+        return self.renderer.render(self.world, self.tracker.trajectory() if self.tracker else None)
 
     def close(self):
-        if self._viewer is not None:
-            self._viewer.close()
-            self._viewer = None
+        self.renderer.close()
 

@@ -68,7 +68,7 @@ from pettingzoo import ParallelEnv
 from ..layout import Layout, load_layout
 from ..lidar import LidarConfig
 from ..metrics import EpisodeTracker
-from ..render import HumanViewer, draw_frame
+from ..render import EnvRenderer
 from ..rewards import REWARD_PRESETS, reward
 from ..world import World
 from .coverage_env import checked_action, observation_space
@@ -113,7 +113,7 @@ class TeamCoverageEnv(ParallelEnv):
 
         self.np_random: np.random.Generator | None = None
         self.tracker: EpisodeTracker | None = None
-        self._viewer: HumanViewer | None = None
+        self.renderer = EnvRenderer(render_mode)
 
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
         return self.observation_spaces[agent]
@@ -220,19 +220,7 @@ class TeamCoverageEnv(ParallelEnv):
 
     # ------------------------------------------------------------------------------ render
     def render(self):
-        if self.render_mode is None:
-            gymnasium.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
-            return None
-        if self.tracker is None:
-            raise RuntimeError("call reset() before render()")
-        frame = draw_frame(self.world, self.tracker.trajectory())
-        if self.render_mode == "rgb_array":
-            return frame
-        self._viewer = self._viewer or HumanViewer()
-        self._viewer.show(frame)
-        return None
+        return self.renderer.render(self.world, self.tracker.trajectory() if self.tracker else None)
 
     def close(self):
-        if self._viewer is not None:
-            self._viewer.close()
-            self._viewer = None
+        self.renderer.close()
