@@ -1,0 +1,297 @@
+"""The learned baselines ``ppo_gail``, ``ppo``, ``ppo_icm`` and ``ppo_gail_only``: shipped policies, plain torch.
+
+Each baseline loads its policy file (default ``baselines/ppo_gail/checkpoints/<ablation>.pt``, or ``checkpoint=``
+in its config, e.g. ``--config '{"checkpoint": "runs/train/ppo_gail__seed0/policy.pt"}'``) once, checks that it was
+trained on observations shaped like the env's, and acts with the deterministic policy: the actor's mean action,
+clipped to [-1, 1]. With ``stochastic=True`` in its config it samples from the trained Gaussian policy instead
+(mean + action_std * noise, clipped), with a generator seeded by the episode seed and the robot's index, so episodes
+stay reproducible. A memoryless policy acting deterministically in a deterministic env can loop forever in the
+same place; the sampled policy is the one that was trained, and breaks such loops.
+
+A policy file is small (a few hundred KB) and loads with ``torch.load(path, weights_only=True)``: a dict of plain
+values and tensors, written by ``export_policy`` at the end of training (``baselines.ppo_gail.training``)::
+
+    format              "cabinbench-policy/1"
+    ablation            "ppo_gail" | "ppo" | "ppo_icm" | "ppo_gail_only"
+    actor               {"hidden_dims": [64, 64], "activation": "elu", "observation_size": 386, "action_size": 2,
+                         "state_dict": the MLP's weights, rsl-rl's key names ("0.weight", "0.bias", "2.weight", ...)}
+    obs_normalizer      {"mean": [D], "std": [D], "eps": float} or None (rsl-rl's EmpiricalNormalization)
+    action_std          [A], the Gaussian policy's std at the end of training (used only with ``stochastic``)
+    observation_config  the lidar settings the policy was trained with (``boustrophedon.observation_config``)
+    env_config          the training envs' layouts, reward preset, terminate_on_bound, max_steps
+    training            the training summary: iterations, steps, time, final coverage and success ...
+
+The actor is rebuilt here from its saved architecture in plain torch (no rsl-rl import), and reproduces rsl-rl's
+inference policy exactly (tested).
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn as nn
+
+from baselines.base import Baseline, EpisodeContext
+
+FORMAT = "cabinbench-policy/1"
+CHECKPOINT_DIR = Path(__file__).resolve().parent / "checkpoints"
+
+ACTIVATIONS = {
+    # rsl-rl's activation names (rsl_rl.utils.resolve_nn_activation)
+    "elu": nn.ELU, "selu": nn.SELU, "relu": nn.ReLU, "crelu": nn.CELU, "lrelu": nn.LeakyReLU, "tanh": nn.Tanh,
+    "sigmoid": nn.Sigmoid, "softplus": nn.Softplus, "gelu": nn.GELU, "swish": nn.SiLU, "mish": nn.Mish,
+    "identity": nn.Identity,
+}
+
+
+class PolicyFileError(ValueError):
+    """A policy file is missing, unreadable, malformed, or does not fit the env."""
+
+
+class Actor(nn.Module):
+    """Observation normaliser + MLP, the deterministic part of rsl-rl's ``MLPModel`` with a Gaussian head.
+
+    ``forward(observations [B, D]) -> mean actions [B, A]`` (not clipped). The layers are an ``nn.Sequential`` named
+    like rsl-rl's ``MLP`` (Linear, activation, Linear, ..., Linear), so rsl-rl's state dict loads as it is.
+    """
+
+    def __init__(self, observation_size: int, action_size: int, hidden_dims, activation: str = "elu",
+                 normalizer: dict | None = None) -> None:
+        super().__init__()
+        if activation not in ACTIVATIONS:
+            raise ValueError(f"unknown activation {activation!r}; known: {', '.join(ACTIVATIONS)}")
+        sizes = [observation_size, *hidden_dims]
+        layers: list[nn.Module] = []
+        for size_in, size_out in zip(sizes[:-1], sizes[1:]):
+            layers += [nn.Linear(size_in, size_out), ACTIVATIONS[activation]()]
+        layers.append(nn.Linear(sizes[-1], action_size))
+        self.mlp = nn.Sequential(*layers)
+        self.normalize = normalizer is not None
+        self.eps = float(normalizer["eps"]) if normalizer else 0.0
+        # Shapes [1, D] and the formula (x - mean) / (std + eps) are rsl-rl's, so results match to the bit.
+        self.register_buffer("mean", torch.zeros(1, observation_size))
+        self.register_buffer("std", torch.ones(1, observation_size))
+        if normalizer:
+            self.mean.copy_(normalizer["mean"].reshape(1, -1))
+            self.std.copy_(normalizer["std"].reshape(1, -1))
+
+    def forward(self, observations: torch.Tensor) -> torch.Tensor:
+        if self.normalize:
+            observations = (observations - self.mean) / (self.std + self.eps)
+        return self.mlp(observations)
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# Export (called by training) and loading
+# ---------------------------------------------------------------------------------------------------------------------
+
+
+def export_policy(runner, path: str | os.PathLike, *, ablation: str, observation_config: dict, env_config: dict,
+                  training: dict) -> Path:
+    """Write the policy file of an rsl-rl ``OnPolicyRunner``'s actor (atomically). Returns the path."""
+    model = runner.alg.get_policy()
+    normalizer = None
+    if model.obs_normalization:
+        stats = model.obs_normalizer
+        normalizer = {"mean": stats.mean.detach().cpu().clone(), "std": stats.std.detach().cpu().clone(),
+                      "eps": float(stats.eps)}
+    actor_cfg = runner.cfg["actor"]
+    linear_layers = [module for module in model.mlp if isinstance(module, nn.Linear)]
+    exported = {
+        "format": FORMAT,
+        "ablation": ablation,
+        "actor": {
+            "hidden_dims": [layer.out_features for layer in linear_layers[:-1]],
+            "activation": actor_cfg.get("activation", "elu"),
+            "observation_size": int(model.obs_dim),
+            "action_size": int(linear_layers[-1].out_features),
+            "state_dict": {key: value.detach().cpu().clone() for key, value in model.mlp.state_dict().items()},
+        },
+        "obs_normalizer": normalizer,
+        "action_std": _action_std(model),
+        "observation_config": _plain(observation_config),
+        "env_config": _plain(env_config),
+        "training": _plain(training),
+    }
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(path.name + ".tmp")
+    try:
+        torch.save(exported, temporary)
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
+    return path
+
+
+def _action_std(model) -> torch.Tensor:
+    """The std of rsl-rl's Gaussian head, clamped to its range as the distribution does."""
+    distribution = model.distribution
+    low, high = distribution.std_range
+    if getattr(distribution, "std_type", "scalar") == "log":
+        return distribution.log_std_param.detach().exp().clamp(low, high).cpu().clone()
+    return distribution.std_param.detach().clamp(low, high).cpu().clone()
+
+
+def read_policy_file(path: str | os.PathLike) -> dict:
+    """Load and validate a policy file; every problem raises ``PolicyFileError`` naming the file."""
+    path = Path(path)
+    if not path.is_file():
+        raise PolicyFileError(f"{path}: policy file not found. Train and ship one with "
+                              f"`python -m cabinbench.train --baseline <name> --ship`, or pass "
+                              f"--config '{{\"checkpoint\": \"runs/train/<run>/policy.pt\"}}'.")
+    try:
+        data = torch.load(path, weights_only=True, map_location="cpu")
+    except Exception as error:  # torch raises a variety of types for truncated or foreign files
+        raise PolicyFileError(f"{path}: cannot read the policy file ({type(error).__name__}: {error}). "
+                              "It may be corrupted or not a torch file.") from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        hint = ""
+        if isinstance(data, dict) and "actor_state_dict" in data:
+            hint = (" It looks like a full rsl-rl training checkpoint; training exports the shippable policy as "
+                    "policy.pt next to checkpoints/.")
+        raise PolicyFileError(f"{path}: not a cabinbench policy file (expected format {FORMAT!r}).{hint}")
+    try:
+        actor = data["actor"]
+        network = Actor(actor["observation_size"], actor["action_size"], actor["hidden_dims"], actor["activation"],
+                        data["obs_normalizer"])
+        network.mlp.load_state_dict(actor["state_dict"], strict=True)
+        data["action_std"] = torch.as_tensor(data["action_std"], dtype=torch.float32).reshape(actor["action_size"])
+        for key in ("ablation", "observation_config"):
+            data[key]  # noqa: B018 - presence check
+    except (KeyError, TypeError, ValueError, RuntimeError) as error:
+        raise PolicyFileError(f"{path}: malformed policy file ({type(error).__name__}: {error}).") from None
+    network.eval()
+    data["network"] = network
+    return data
+
+
+_CACHE: dict[tuple[str, int, int], dict] = {}
+
+
+def load_policy(path: str | os.PathLike) -> dict:
+    """``read_policy_file``, cached per file (path, modification time and size)."""
+    path = Path(path).resolve()
+    stat = path.stat() if path.is_file() else None
+    key = (str(path), stat.st_mtime_ns if stat else 0, stat.st_size if stat else 0)
+    if key not in _CACHE:
+        _CACHE[key] = read_policy_file(path)
+    return _CACHE[key]
+
+
+def env_observation_config(context: EpisodeContext, observation: np.ndarray) -> dict:
+    """The observation config of the env an episode runs in, from the lidar settings it was made with
+    (``context.env_config``, defaults of ``CoverageEnv`` otherwise) and the observation's size."""
+    from cabinbench.envs.coverage_env import CoverageEnv
+
+    defaults = {name: parameter.default for name, parameter in inspect.signature(CoverageEnv).parameters.items()}
+    settings = {**defaults, **context.env_config}
+    return {"n_rays": int(settings["n_rays"]), "max_range": float(settings["lidar_range"]),
+            "field_of_view": float(settings["field_of_view"]), "size": int(np.asarray(observation).shape[-1])}
+
+
+def check_observation_config(trained: dict, env: dict, path: str | os.PathLike) -> None:
+    """Raise ``PolicyFileError`` unless the env's observation is shaped like the policy's training observation."""
+    different = [key for key in sorted(set(trained) | set(env)) if not _same(trained.get(key), env.get(key))]
+    if different:
+        details = ", ".join(f"{key}: trained {trained.get(key)!r}, env {env.get(key)!r}" for key in different)
+        raise PolicyFileError(f"{path}: the policy was trained on another observation layout ({details}). "
+                              "Run the env with the lidar settings the policy was trained with, or retrain.")
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# The baselines
+# ---------------------------------------------------------------------------------------------------------------------
+
+
+class LearnedPolicy(Baseline):
+    """A shipped rsl-rl policy. Config: ``checkpoint`` (path to a policy file; default the shipped one) and
+    ``stochastic`` (sample actions from the trained Gaussian policy instead of taking its mean; default False)."""
+
+    name = "learned_policy"
+    ablation = ""
+
+    def __init__(self, checkpoint: str | os.PathLike | None = None, stochastic: bool = False, **config) -> None:
+        if config:
+            raise TypeError(f"{self.name} takes only `checkpoint` and `stochastic`, not {sorted(config)}")
+        settings = {"checkpoint": str(checkpoint)} if checkpoint is not None else {}
+        if stochastic:
+            settings["stochastic"] = True
+        super().__init__(**settings)
+        self.path = Path(checkpoint) if checkpoint is not None else CHECKPOINT_DIR / f"{self.ablation}.pt"
+        self.stochastic = bool(stochastic)
+        self.policy: dict | None = None
+        self.rng: np.random.Generator | None = None
+
+    def reset(self, context: EpisodeContext, observation: np.ndarray, info: dict) -> None:
+        super().reset(context, observation, info)
+        if self.policy is None:
+            policy = load_policy(self.path)
+            if policy["ablation"] != self.ablation:
+                raise PolicyFileError(f"{self.path}: holds a {policy['ablation']!r} policy, not {self.ablation!r}; "
+                                      f"run it as --baseline {policy['ablation']}")
+            self.policy = policy
+        check_observation_config(self.policy["observation_config"], env_observation_config(context, observation),
+                                 self.path)
+        if self.stochastic:
+            self.rng = np.random.default_rng([context.seed, context.agent])
+            self.action_std = self.policy["action_std"].numpy().astype(np.float64)
+
+    def act(self, observation: np.ndarray, info: dict) -> np.ndarray:
+        with torch.no_grad():
+            mean = self.policy["network"](torch.as_tensor(observation, dtype=torch.float32).reshape(1, -1))
+        action = mean[0].numpy().astype(np.float64)
+        if self.stochastic:
+            action = action + self.action_std * self.rng.standard_normal(action.shape)
+        return np.clip(action, -1.0, 1.0)
+
+
+class PPOGail(LearnedPolicy):
+    """PPO + curiosity (ICM) + GAIL: the seed's learner."""
+
+    name = ablation = "ppo_gail"
+
+
+class PPO(LearnedPolicy):
+    """Ablation: PPO on the environment reward alone."""
+
+    name = ablation = "ppo"
+
+
+class PPOCuriosity(LearnedPolicy):
+    """Ablation: PPO + curiosity (ICM), no imitation."""
+
+    name = ablation = "ppo_icm"
+
+
+class PPOGailOnly(LearnedPolicy):
+    """Ablation: PPO + GAIL, no curiosity."""
+
+    name = ablation = "ppo_gail_only"
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+
+
+def _plain(value):
+    """JSON-like plain values (what ``weights_only`` loading accepts): dicts, lists, str, int, float, bool, None."""
+    if isinstance(value, dict):
+        return {str(key): _plain(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(item) for item in value]
+    if isinstance(value, (np.generic,)):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, float) or isinstance(b, float):
+        return a is not None and b is not None and math.isclose(float(a), float(b), rel_tol=1e-9, abs_tol=1e-12)
+    return a == b

@@ -1,0 +1,134 @@
+"""Train a learned baseline: ``python -m cabinbench.train --baseline ppo_gail --layout a320_cell``.
+
+    python -m cabinbench.train --baseline ppo_gail|ppo|ppo_icm|ppo_gail_only
+        [--layout NAME ...] [--iterations N] [--num-envs N] [--steps-per-env N] [--seed S]
+        [--reward paper|coverage] [--[no-]terminate-on-bound] [--max-steps N] [--algorithm JSON]
+        [--min-action-std X]
+        [--threads N] [--save-interval N]
+        [--demonstrations FILE.npz ...] [--run-dir DIR] [--resume] [--ship] [--no-progress]
+
+Options not given take the defaults of ``baselines.ppo_gail.training.TrainConfig`` (the shipped policies'
+configuration; with ``--layout`` repeated, one policy trains on all of them, by default ``a320_cell`` and
+``a320_tracking_cell``). The run lives in ``--run-dir`` (default ``runs/train/<baseline>__seed<S>``): config,
+demonstrations, checkpoints, ``metrics.csv``, ``curves.png`` and the exported ``policy.pt``. ``--resume`` continues
+an interrupted run from its latest checkpoint, with the saved config (``--iterations`` may raise the total).
+``--ship`` copies the exported policy to ``baselines/ppo_gail/checkpoints/<baseline>.pt``, where
+``python -m cabinbench.run --baseline <baseline>`` finds it.
+
+Exit status: 0 done; 2 bad arguments (an unknown baseline: the valid ones are printed) or a run directory that
+cannot be used as asked; 130 interrupted by Ctrl-C (finished checkpoints are kept; resume with ``--resume``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import sys
+from pathlib import Path
+
+EXIT_USAGE, EXIT_INTERRUPTED = 2, 130
+TRAINABLE = ("ppo_gail", "ppo", "ppo_icm", "ppo_gail_only")  # = baselines.ppo_gail.algorithm.ABLATIONS
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog="python -m cabinbench.train",
+                                     description="Train PPO + curiosity + GAIL (or an ablation) with rsl-rl.")
+    parser.add_argument("--baseline", required=True, help=f"one of {', '.join(TRAINABLE)}")
+    parser.add_argument("--layout", action="append", dest="layouts", metavar="NAME",
+                        help="training layout (repeat for several; default a320_cell and a320_tracking_cell)")
+    parser.add_argument("--iterations", type=int, help="total training iterations")
+    parser.add_argument("--num-envs", type=int, help="parallel envs")
+    parser.add_argument("--steps-per-env", type=int, dest="num_steps_per_env", help="rollout steps per env and iteration")
+    parser.add_argument("--seed", type=int, help="seed (default 0)")
+    parser.add_argument("--reward", choices=("paper", "coverage"), help="reward preset of the training envs")
+    parser.add_argument("--max-steps", type=int, help="episode step limit (default: each layout's)")
+    parser.add_argument("--threads", type=int, help="torch threads")
+    parser.add_argument("--save-interval", type=int, help="checkpoint every N iterations")
+    parser.add_argument("--algorithm", type=json.loads, metavar="JSON",
+                        help='further algorithm settings, e.g. \'{"gail_strength": 0.1, "entropy_coef": 0.02}\'')
+    parser.add_argument("--min-action-std", type=float, help="lower clamp of the policy's action std")
+    parser.add_argument("--terminate-on-bound", action=argparse.BooleanOptionalAction, default=None,
+                        help="end episodes on a bound contact")
+    parser.add_argument("--demonstrations", nargs="+", metavar="FILE", help="expert .npz files instead of recording")
+    parser.add_argument("--run-dir", help="run directory (default runs/train/<baseline>__seed<S>)")
+    parser.add_argument("--resume", action="store_true", help="continue the run in --run-dir from its latest checkpoint")
+    parser.add_argument("--ship", action="store_true", help="copy the exported policy to baselines/ppo_gail/checkpoints/")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    args = parser.parse_args(argv)
+    if args.algorithm is not None and not isinstance(args.algorithm, dict):
+        parser.error("--algorithm must be a JSON object")
+    return args
+
+
+def build_config(args: argparse.Namespace):
+    """The ``TrainConfig``: the saved one when resuming (else the defaults), overridden by the options given."""
+    from baselines.ppo_gail.training import CONFIG_FILE, TrainConfig, default_run_dir
+
+    given = {name: getattr(args, name) for name in ("layouts", "iterations", "num_envs", "num_steps_per_env", "seed",
+                                                     "reward", "terminate_on_bound", "max_steps", "algorithm", "min_action_std",
+                                                     "threads", "save_interval", "demonstrations")
+             if getattr(args, name) is not None}
+    given["ablation"] = args.baseline
+    run_dir = Path(args.run_dir) if args.run_dir else default_run_dir(TrainConfig(**given))
+    saved_path = run_dir / CONFIG_FILE
+    if args.resume and saved_path.exists():
+        config = TrainConfig.from_dict({**json.loads(saved_path.read_text()), **given})
+    else:
+        config = TrainConfig(**given)
+    return config, run_dir
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    if args.baseline not in TRAINABLE:
+        print(f"error: cannot train baseline {args.baseline!r}; trainable baselines: {', '.join(TRAINABLE)}",
+              file=sys.stderr)
+        return EXIT_USAGE
+    os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
+    from baselines.ppo_gail.policy import CHECKPOINT_DIR
+    from baselines.ppo_gail.training import train
+    from cabinbench.layout import LayoutError, available_layouts, load_layout
+
+    try:
+        config, run_dir = build_config(args)
+        for layout in config.layouts:
+            load_layout(layout)
+    except LayoutError as error:
+        print(f"error: {error}\nvalid layouts: {', '.join(available_layouts())}", file=sys.stderr)
+        return EXIT_USAGE
+    except (ValueError, TypeError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_USAGE
+
+    print(f"training {config.ablation} on {', '.join(config.layouts)}: {config.iterations} iterations x "
+          f"{config.num_envs} envs x {config.num_steps_per_env} steps; run dir {run_dir}", file=sys.stderr)
+    try:
+        result = train(config, run_dir, resume=args.resume, progress=not args.no_progress)
+    except (FileExistsError, ValueError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:  # before the first iteration (recording demonstrations, building the runner)
+        print("interrupted before training started", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    if result.interrupted:
+        return EXIT_INTERRUPTED
+
+    summary = result.summary
+    print(f"done: {result.iterations} iterations, {summary['timesteps']} steps, {result.train_time / 60:.1f} min of "
+          f"training; last iterations: coverage {summary['final_coverage']}, success {summary['final_success']}")
+    print(f"policy: {result.policy_path}\ncurves: {result.run_dir / 'curves.png'}\n"
+          f"metrics: {result.run_dir / 'metrics.csv'}")
+    if args.ship:
+        CHECKPOINT_DIR.mkdir(parents=True, exist_ok=True)
+        shipped = CHECKPOINT_DIR / f"{config.ablation}.pt"
+        temporary = shipped.with_name(shipped.name + ".tmp")
+        shutil.copyfile(result.policy_path, temporary)
+        os.replace(temporary, shipped)
+        print(f"shipped: {shipped}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,229 @@
+"""Training pipeline of the learned baselines: train, checkpoint, interrupt and resume, export, reload, evaluate.
+
+A CI smoke test on tiny settings (8 envs x 16 steps, episodes of 30 steps), plus the exported actor against rsl-rl's
+own inference policy, the errors of bad policy files, and the CLI's usage errors.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl's logger imports GitPython
+
+import numpy as np
+import pytest
+import torch
+
+from baselines.base import EpisodeContext, load_baseline
+from baselines.ppo_gail import training
+from baselines.ppo_gail.algorithm import PPOCuriosityGail
+from baselines.ppo_gail.policy import CHECKPOINT_DIR, PolicyFileError, read_policy_file
+from cabinbench.episodes import run_episode
+from cabinbench.layout import load_layout
+
+SHIPPED = ("ppo_gail", "ppo", "ppo_icm", "ppo_gail_only")
+
+
+@pytest.fixture(autouse=True)
+def single_torch_thread():
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(threads)
+
+
+def tiny_config(**overrides) -> training.TrainConfig:
+    settings = dict(ablation="ppo_gail", layouts=["a320_cell"], num_envs=8, num_steps_per_env=16, iterations=3,
+                    max_steps=30, demo_episodes=2, save_interval=2, threads=1, hidden_dims=[32, 32])
+    return training.TrainConfig(**{**settings, **overrides})
+
+
+def interrupt_on_call(monkeypatch, call: int) -> None:
+    """Make the ``call``-th ``runner.learn`` raise KeyboardInterrupt, as Ctrl-C would."""
+    from rsl_rl.runners import OnPolicyRunner
+
+    original, calls = OnPolicyRunner.learn, []
+
+    def learn(self, *args, **kwargs):
+        calls.append(1)
+        if len(calls) == call:
+            raise KeyboardInterrupt
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(OnPolicyRunner, "learn", learn)
+
+
+def test_train_interrupt_resume_export_reload_and_evaluate(tmp_path, monkeypatch):
+    run_dir = tmp_path / "run"
+
+    # Ctrl-C during the third iteration: the checkpoint of iteration 2 is kept, nothing is exported.
+    interrupt_on_call(monkeypatch, 3)
+    interrupted = training.train(tiny_config(), run_dir, progress=False)
+    assert interrupted.interrupted and interrupted.iterations == 2 and interrupted.policy_path is None
+    assert [path.name for path in (run_dir / "checkpoints").iterdir()] == ["model_000002.pt"]
+    assert not list(run_dir.rglob("*.tmp*"))
+    rows_before = training.read_metrics(run_dir / "metrics.csv")
+    assert [row["iteration"] for row in rows_before] == ["1", "2"]
+    monkeypatch.undo()
+
+    # Starting over in the same folder by mistake is refused; resuming continues from the checkpoint.
+    with pytest.raises(FileExistsError, match="--resume"):
+        training.train(tiny_config(), run_dir, progress=False)
+    with pytest.raises(ValueError, match="num_envs"):
+        training.train(tiny_config(num_envs=4), run_dir, resume=True, progress=False)
+    loaded = []
+    original_load = PPOCuriosityGail.load
+
+    def recording_load(self, state, *args, **kwargs):
+        loaded.append(state["iter"])
+        return original_load(self, state, *args, **kwargs)
+
+    monkeypatch.setattr(PPOCuriosityGail, "load", recording_load)
+    result = training.train(tiny_config(), run_dir, resume=True, progress=False)
+
+    assert loaded == [2]
+    assert not result.interrupted and result.iterations == 3
+    rows = training.read_metrics(run_dir / "metrics.csv")
+    assert [row["iteration"] for row in rows] == ["1", "2", "3"]
+    assert rows[:2] == rows_before
+    assert int(rows[-1]["timesteps"]) == 3 * 8 * 16
+    assert float(rows[-1]["train_time"]) > float(rows[-2]["train_time"])
+    for column in ("gail_discriminator", "curiosity_forward", "curiosity_inverse", "policy_loss", "value_loss"):
+        assert np.isfinite(float(rows[-1][column])), column
+    assert any(row["episodes"] != "0" for row in rows)  # 30-step episodes end within the run
+    checkpoint = torch.load(run_dir / "checkpoints" / "model_000003.pt", weights_only=True)
+    assert checkpoint["iter"] == 3 and "discriminator_state_dict" in checkpoint
+    assert (run_dir / "curves.png").stat().st_size > 10_000
+    assert (run_dir / "demos" / "a320_cell.npz").is_file()
+
+    # The exported policy is small, loads as a baseline and drives an episode.
+    assert result.policy_path.stat().st_size < 500_000
+    policy = read_policy_file(result.policy_path)
+    assert policy["ablation"] == "ppo_gail" and policy["training"]["iterations"] == 3
+    baseline = load_baseline("ppo_gail", checkpoint=str(result.policy_path))
+    assert baseline.config == {"checkpoint": str(result.policy_path)}
+    record, trajectory = run_episode("ppo_gail", "a320_cell", seed=0, env_kwargs={"max_steps": 40},
+                                     config={"checkpoint": str(result.policy_path)})
+    assert record["steps"] == 40 and len(trajectory["positions"]) == 41
+    assert record["path_length"] > 0
+
+
+def test_exported_actor_reproduces_rsl_rl_inference_policy(tmp_path):
+    from rsl_rl.runners import OnPolicyRunner
+    from tensordict import TensorDict
+
+    from baselines.ppo_gail.algorithm import make_train_cfg
+    from baselines.ppo_gail.policy import export_policy
+    from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
+
+    torch.manual_seed(0)
+    env = RslRlVecEnv(BatchedCoverageEnv("a320_cell", 4, seed=0, max_steps=50))
+    runner = OnPolicyRunner(env, make_train_cfg("ppo", num_steps_per_env=8, hidden_dims=[48, 24], activation="tanh"),
+                            log_dir=None)
+    runner.learn(2)  # non-trivial weights and observation statistics
+    path = export_policy(runner, tmp_path / "policy.pt", ablation="ppo", observation_config={"size": 386},
+                         env_config={}, training={})
+
+    network = read_policy_file(path)["network"]
+    reference = runner.get_inference_policy("cpu")
+    generator = torch.Generator().manual_seed(1)
+    observations = torch.rand(256, 386, generator=generator) * 1.2 - 0.1
+    with torch.no_grad():
+        expected = reference(TensorDict({"policy": observations}, batch_size=[256]))
+        actual = network(observations)
+    assert torch.equal(actual, expected)
+    assert not torch.equal(reference.obs_normalizer.std, torch.ones_like(reference.obs_normalizer.std))
+
+
+def test_bad_policy_files_give_clear_errors(tmp_path):
+    garbage = tmp_path / "garbage.pt"
+    garbage.write_bytes(b"not a checkpoint")
+    with pytest.raises(PolicyFileError, match="garbage.pt: cannot read the policy file"):
+        read_policy_file(garbage)
+
+    with pytest.raises(PolicyFileError, match="missing.pt: policy file not found.*--ship"):
+        read_policy_file(tmp_path / "missing.pt")
+
+    runner_checkpoint = tmp_path / "model.pt"
+    torch.save({"actor_state_dict": {}, "iter": 3}, runner_checkpoint)
+    with pytest.raises(PolicyFileError, match="not a cabinbench policy file.*full rsl-rl training checkpoint"):
+        read_policy_file(runner_checkpoint)
+
+    policy = _small_policy(tmp_path)
+    truncated = tmp_path / "truncated.pt"
+    truncated.write_bytes(policy.read_bytes()[:2000])
+    with pytest.raises(PolicyFileError, match="truncated.pt: cannot read"):
+        read_policy_file(truncated)
+
+    broken = torch.load(policy, weights_only=True)
+    broken["actor"]["hidden_dims"] = [7]
+    torch.save(broken, tmp_path / "broken.pt")
+    with pytest.raises(PolicyFileError, match="broken.pt: malformed policy file"):
+        read_policy_file(tmp_path / "broken.pt")
+
+    # Trained with 64 rays; the env has 32.
+    with pytest.raises(PolicyFileError, match="another observation layout.*n_rays: trained 64, env 32"):
+        run_episode("ppo", "a320_cell", seed=0, env_kwargs={"n_rays": 32, "max_steps": 5},
+                    config={"checkpoint": str(policy)})
+    # A 'ppo' policy is not a 'ppo_gail' one.
+    with pytest.raises(PolicyFileError, match="holds a 'ppo' policy, not 'ppo_gail'"):
+        run_episode("ppo_gail", "a320_cell", seed=0, env_kwargs={"max_steps": 5}, config={"checkpoint": str(policy)})
+
+
+def test_stochastic_option_samples_the_trained_gaussian_reproducibly(tmp_path):
+    policy = _small_policy(tmp_path)
+    assert torch.equal(read_policy_file(policy)["action_std"], torch.ones(2))  # rsl-rl's init_std
+    config = {"checkpoint": str(policy), "stochastic": True}
+    episode = {"env_kwargs": {"max_steps": 30}}
+
+    first, _ = run_episode("ppo", "a320_cell", seed=3, config=config, **episode)
+    again, _ = run_episode("ppo", "a320_cell", seed=3, config=config, **episode)
+    other, _ = run_episode("ppo", "a320_cell", seed=4, config=config, **episode)
+    mean, _ = run_episode("ppo", "a320_cell", seed=3, config={"checkpoint": str(policy)}, **episode)
+
+    assert first["path_length"] == again["path_length"]
+    assert first["path_length"] != other["path_length"]
+    assert first["path_length"] != mean["path_length"]
+    assert load_baseline("ppo", **config).config == config
+
+
+def _small_policy(tmp_path) -> "os.PathLike":
+    """An exported, untrained 'ppo' policy for the default 64-ray env."""
+    from rsl_rl.runners import OnPolicyRunner
+
+    from baselines.boustrophedon import observation_config
+    from baselines.ppo_gail.algorithm import make_train_cfg
+    from baselines.ppo_gail.policy import export_policy
+    from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
+
+    batched = BatchedCoverageEnv("a320_cell", 2, seed=0, max_steps=20)
+    runner = OnPolicyRunner(RslRlVecEnv(batched), make_train_cfg("ppo", num_steps_per_env=4, hidden_dims=[16]),
+                            log_dir=None)
+    return export_policy(runner, tmp_path / "ppo.pt", ablation="ppo", observation_config=observation_config(batched.example_env),
+                         env_config={}, training={})
+
+
+def test_train_cli_rejects_unknown_baseline():
+    completed = subprocess.run([sys.executable, "-m", "cabinbench.train", "--baseline", "nope"],
+                               capture_output=True, text=True, timeout=60)
+    assert completed.returncode == 2
+    assert "nope" in completed.stderr
+    for name in SHIPPED:
+        assert name in completed.stderr
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_policy_loads_and_acts(name):
+    path = CHECKPOINT_DIR / f"{name}.pt"
+    assert path.is_file(), f"{path} is missing: train it with python -m cabinbench.train --baseline {name} --ship"
+    assert path.stat().st_size < 1_000_000
+    policy = read_policy_file(path)
+    assert policy["ablation"] == name and policy["training"]["iterations"] > 0
+    baseline = load_baseline(name)
+    layout = load_layout("a320_cell")
+    observation = np.zeros(policy["observation_config"]["size"], dtype=np.float32)
+    baseline.reset(EpisodeContext(layout, "sequential", 0), observation, {})
+    action = baseline.act(observation, {})
+    assert action.shape == (2,) and np.all(np.abs(action) <= 1.0)
