@@ -230,6 +230,9 @@ class LearnedPolicy(Baseline):
 
     def reset(self, context: EpisodeContext, observation: np.ndarray, info: dict) -> None:
         super().reset(context, observation, info)
+        # One observation at a time: torch's intra-op threads only add overhead, and on a busy
+        # 2-core machine they turned a 0.3 ms forward pass into 14 ms.
+        torch.set_num_threads(1)
         if self.policy is None:
             policy = load_policy(self.path)
             if policy["ablation"] != self.ablation:
