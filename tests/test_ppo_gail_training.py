@@ -103,7 +103,7 @@ def test_train_interrupt_resume_export_reload_and_evaluate(tmp_path, monkeypatch
     policy = read_policy_file(result.policy_path)
     assert policy["ablation"] == "ppo_gail" and policy["training"]["iterations"] == 3
     baseline = load_baseline("ppo_gail", checkpoint=str(result.policy_path))
-    assert baseline.config == {"checkpoint": str(result.policy_path)}
+    assert baseline.config == {"checkpoint": str(result.policy_path), "stochastic": True}
     record, trajectory = run_episode("ppo_gail", "a320_cell", seed=0, env_kwargs={"max_steps": 40},
                                      config={"checkpoint": str(result.policy_path)})
     assert record["steps"] == 40 and len(trajectory["positions"]) == 41
@@ -181,7 +181,7 @@ def test_stochastic_option_samples_the_trained_gaussian_reproducibly(tmp_path):
     first, _ = run_episode("ppo", "a320_cell", seed=3, config=config, **episode)
     again, _ = run_episode("ppo", "a320_cell", seed=3, config=config, **episode)
     other, _ = run_episode("ppo", "a320_cell", seed=4, config=config, **episode)
-    mean, _ = run_episode("ppo", "a320_cell", seed=3, config={"checkpoint": str(policy)}, **episode)
+    mean, _ = run_episode("ppo", "a320_cell", seed=3, config={"checkpoint": str(policy), "stochastic": False}, **episode)
 
     assert first["path_length"] == again["path_length"]
     assert first["path_length"] != other["path_length"]
