@@ -55,6 +55,10 @@ SQRT2 = math.sqrt(2.0)
 # 1.5 m to 8 m give plans within 1% of each other on the built-in layouts.
 ROUTING_SEARCH_RADIUS_M = 3.0
 
+# A corner is only cut out when the shortcut covers what the corner alone covered with this much
+# to spare (metres), so that a robot tracking the path a centimetre off still covers it.
+SHORTCUT_MARGIN_M = 0.01
+
 # Douglas-Peucker tolerance (pixels) for boundary-following polylines. Slightly above
 # sqrt(2)/2 so that a 45-degree staircase of single-pixel steps becomes one diagonal segment,
 # while steps of two pixels or more (real corners) are kept.
@@ -590,6 +594,111 @@ def _simplify_boundary_runs(path: np.ndarray, lines: np.ndarray) -> np.ndarray:
     return np.vstack(result)
 
 
+def transpose_cell(cell: Cell, max_jump: int | None = None) -> Cell | None:
+    """The cell's pixels as one cell of the other sweep axis, or None when they do not form one.
+
+    The pixels are decomposed along the other axis with the same ``max_jump``. They form a single
+    cell there when every line of the other axis crosses them in one interval and no interval end
+    jumps by more than ``max_jump``: the condition under which lanes across the original lines
+    sweep the cell as completely as lanes along them.
+    """
+    lo, hi = cell.intervals[:, 0], cell.intervals[:, 1]
+    offset = int(lo.min())
+    positions = np.arange(offset, int(hi.max()) + 1)
+    local = (positions >= lo[:, None]) & (positions <= hi[:, None])  # [line, position]
+    parts = decompose(local.T, sweep_axis=0, max_jump=max_jump)
+    if len(parts) != 1:
+        return None
+    return Cell(1 - cell.sweep_axis, offset + parts[0].first_line, parts[0].intervals + cell.first_line)
+
+
+def attachment_points(cell: Cell, lines: np.ndarray) -> np.ndarray:
+    """Positions where neighbouring cells attach to the cell across its first or last line.
+
+    One point per free run of the line beyond that touches the cell: the middle of the overlap.
+    A corridor swept by one or two lanes is cut at these points, so that the route may sweep a
+    stretch of it on the way to a side pocket and the next stretch after the pocket.
+    """
+    points = []
+    for line, beyond in ((cell.first_line, cell.first_line - 1), (cell.last_line, cell.last_line + 1)):
+        if not 0 <= beyond < lines.shape[0]:
+            continue
+        lo, hi = cell.interval(line)
+        for run_lo, run_hi in free_intervals(lines[beyond : beyond + 1])[0]:
+            if run_hi >= lo and run_lo <= hi:
+                points.append((max(int(run_lo), lo) + min(int(run_hi), hi)) // 2)
+    return np.unique(np.array(points, dtype=int))
+
+
+def cut_lane(lane: np.ndarray, cuts: np.ndarray) -> list[np.ndarray]:
+    """A straight (line, position) lane cut into consecutive pieces at the given positions."""
+    line, lo, hi = int(lane[0, 0]), int(lane[:, 1].min()), int(lane[:, 1].max())
+    stops = np.concatenate(([lo], cuts[(cuts > lo) & (cuts < hi)], [hi]))
+    if len(stops) == 2 and lo == hi:
+        return [np.array([[line, lo]])]
+    return [np.array([[line, a], [line, b]]) for a, b in zip(stops[:-1], stops[1:])]
+
+
+@dataclass
+class Sweep:
+    """One unit of the route: a part of a cell swept in one go.
+
+    ``variants`` are the ways to drive it, raster (row, col) polylines; variant k ^ 1 is variant k
+    reversed; ``cell`` is the index of the cell it belongs to.
+    """
+
+    cell: int
+    variants: list[np.ndarray]
+
+
+def cell_units(
+    cell: Cell, index: int, centre_free: np.ndarray, tool_width: float, resolution: float,
+    max_jump: int | None = None,
+) -> list[Sweep]:
+    """The route units of one cell, with the lane direction chosen per cell.
+
+    - A narrow cell: one unit per edge pass, so that the way in and the way out of a pocket are
+      routed like any other pass.
+    - A cell that one or two lanes sweep (in whichever direction needs the fewer): one unit per
+      lane piece, the lanes cut where neighbouring cells attach (``attachment_points``), so a
+      corridor is swept piecewise on the way to and back from what branches off it.
+    - Any other cell: a single boustrophedon unit whose variants include, when the cell is also
+      one cell of the other axis (``transpose_cell``), the sweeps with lanes across the slice
+      lines; the route picks the direction along with the order.
+    """
+    lines = line_view(centre_free, cell.sweep_axis)
+    if is_narrow(cell, tool_width, resolution):
+        edges = swaths(cell, centre_free, tool_width, resolution)
+        return [Sweep(index, _both_ways(cell, edge, lines)) for edge in edges]
+    options = [cell]
+    across = transpose_cell(cell, max_jump)
+    if across is not None and not is_narrow(across, tool_width, resolution):
+        options.append(across)
+    option_lanes = [swaths(option, centre_free, tool_width, resolution) for option in options]
+    fewest = min(range(len(options)), key=lambda k: len(option_lanes[k]))
+    if len(option_lanes[fewest]) <= 2:
+        option = options[fewest]
+        option_view = line_view(centre_free, option.sweep_axis)
+        cuts = attachment_points(option, option_view)
+        return [
+            Sweep(index, _both_ways(option, piece, option_view))
+            for lane in option_lanes[fewest]
+            for piece in cut_lane(lane, cuts)
+        ]
+    variants = []
+    for option, lanes in zip(options, option_lanes):
+        if len(lanes) > 2:
+            variants += cell_sweeps(option, lanes, centre_free, narrow=False)
+    return [Sweep(index, variants)]
+
+
+def _both_ways(cell: Cell, path: np.ndarray, lines: np.ndarray) -> list[np.ndarray]:
+    """A single pass (line, position polyline) as the two variants of a unit: forward, backward."""
+    path = _simplify_boundary_runs(drop_redundant_points(path), lines)
+    pixels = cell.to_pixels(path)
+    return [pixels, pixels[::-1]]
+
+
 # --------------------------------------------------------------------------------------------
 # 4. Routing
 # --------------------------------------------------------------------------------------------
@@ -634,6 +743,7 @@ def route(
     cost = _tour_cost(tour, start_to, transit, in_cell_length)
     while True:
         tour = _two_opt(tour, group_end, start_to, transit)
+        tour = _or_opt(tour, group_end, start_to, transit)
         tour = _best_variants([cell for cell, _ in tour], start_to, transit, in_cell_length)
         new_cost = _tour_cost(tour, start_to, transit, in_cell_length)
         if new_cost >= cost - 1e-9:
@@ -688,6 +798,76 @@ def _two_opt(tour, group_end, start_to, transit) -> list[tuple[int, int]]:
     return tour
 
 
+def _or_opt(tour, group_end, start_to, transit, max_segment: int = 3) -> list[tuple[int, int]]:
+    """Or-opt: move stretches of up to ``max_segment`` units, either way round, to a better place.
+
+    This is the move that nests routes: a side pocket left for later is fitted in between two
+    pieces of the corridor it branches off. Stretches stay within their group.
+    """
+    tour = list(tour)
+    improved = True
+    while improved:
+        improved = False
+        for length in range(1, max_segment + 1):
+            i = 0
+            while i + length <= len(tour):
+                in_first_group = i < group_end
+                if in_first_group and i + length > group_end:
+                    i += 1
+                    continue
+                move = _best_insertion(tour, i, length, group_end, in_first_group, start_to, transit)
+                if move is not None:
+                    gap, stretch = move
+                    rest = tour[:i] + tour[i + length :]
+                    tour = rest[:gap] + stretch + rest[gap:]
+                    improved = True
+                i += 1
+    return tour
+
+
+def _best_insertion(tour, i, length, group_end, in_first_group, start_to, transit):
+    """The best (gap, stretch) to move tour[i : i + length] to, or None if no move gains."""
+    stretch = tour[i : i + length]
+    rest = tour[:i] + tour[i + length :]
+
+    def link(a, b):
+        return 0.0 if b is None else start_to[b] if a is None else transit[a + b]
+
+    before = tour[i - 1] if i > 0 else None
+    after = tour[i + length] if i + length < len(tour) else None
+    removal = link(before, stretch[0]) + link(stretch[-1], after) - link(before, after)
+    rest_end = group_end - length if in_first_group else group_end
+    first_gap, last_gap = (0, rest_end) if in_first_group else (rest_end, len(rest))
+    cells = np.array([cell for cell, _ in rest], dtype=int)
+    variants = np.array([variant for _, variant in rest], dtype=int)
+    gaps = np.arange(first_gap, last_gap + 1)
+    has_previous, has_next = gaps > 0, gaps < len(rest)
+    previous = np.maximum(gaps - 1, 0)
+    following = np.minimum(gaps, len(rest) - 1)
+    # The cost of the link a gap replaces: from the unit before it (or the start) to the unit after it.
+    replaced = np.zeros(len(gaps))
+    if len(rest):
+        replaced = np.where(
+            has_previous,
+            transit[cells[previous], variants[previous], cells[following], variants[following]],
+            start_to[cells[following], variants[following]],
+        )
+        replaced = np.where(has_next, replaced, 0.0)
+    best_gain, best = 1e-9, None
+    for candidate in (stretch, [(cell, variant ^ 1) for cell, variant in reversed(stretch)]):
+        (first_cell, first_variant), (last_cell, last_variant) = candidate[0], candidate[-1]
+        into = start_to[first_cell, first_variant] * np.ones(len(gaps))
+        out = np.zeros(len(gaps))
+        if len(rest):
+            into = np.where(has_previous, transit[cells[previous], variants[previous], first_cell, first_variant], into)
+            out = np.where(has_next, transit[last_cell, last_variant, cells[following], variants[following]], 0.0)
+        gain = removal - (into + out - replaced)
+        k = int(np.argmax(gain))
+        if gain[k] > best_gain:
+            best_gain, best = gain[k], (int(gaps[k]), candidate)
+    return best
+
+
 def _best_variants(order, start_to, transit, in_cell_length) -> list[tuple[int, int]]:
     """For a fixed cell order, the cheapest variant of every cell (Viterbi over the variants)."""
     cost = start_to[order[0]] + in_cell_length[order[0]]
@@ -700,6 +880,68 @@ def _best_variants(order, start_to, transit, in_cell_length) -> list[tuple[int, 
     for choice in reversed(choices):
         variants.append(int(choice[variants[-1]]))
     return list(zip(order, reversed(variants)))
+
+
+# --------------------------------------------------------------------------------------------
+# 5. Shortcuts that lose no coverage
+# --------------------------------------------------------------------------------------------
+
+
+def segment_footprint(start: np.ndarray, end: np.ndarray, radius_px: float, shape: tuple[int, int]) -> np.ndarray:
+    """Flat indices of the pixels whose centre lies within ``radius_px`` of the segment."""
+    start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+    low = np.maximum(np.floor(np.minimum(start, end) - radius_px), 0).astype(int)
+    high = np.minimum(np.ceil(np.maximum(start, end) + radius_px), np.array(shape) - 1).astype(int)
+    rows, cols = np.mgrid[low[0] : high[0] + 1, low[1] : high[1] + 1]
+    delta = end - start
+    length2 = float(delta @ delta)
+    t = 0.0 if length2 == 0 else np.clip(((rows - start[0]) * delta[0] + (cols - start[1]) * delta[1]) / length2, 0, 1)
+    inside = (rows - start[0] - t * delta[0]) ** 2 + (cols - start[1] - t * delta[1]) ** 2 <= radius_px**2 + 1e-9
+    return (rows[inside] * shape[1] + cols[inside]).ravel()
+
+
+def drop_idle_corners(
+    path: np.ndarray, free: np.ndarray, radius_px: float, margin_px: float = 0.0, max_passes: int = 4
+) -> np.ndarray:
+    """Shortcut the corners of a path wherever the shortcut loses no coverage.
+
+    A corner (an inner waypoint) is cut out when the straight segment between its neighbours lies
+    on free pixels and covers every pixel that only the two segments meeting at the corner
+    covered. This removes the detours that cover nothing new: the turns into cell corners that
+    neighbouring passes already reach, staircases along edges that other lanes sweep, and the
+    corners between transits and sweeps. The first and last waypoints stay.
+    """
+    points = [np.asarray(point, dtype=float) for point in path]
+    if len(points) < 3:
+        return path
+    shape = free.shape
+    footprints = [segment_footprint(a, b, radius_px, shape) for a, b in zip(points[:-1], points[1:])]
+    counts = np.zeros(free.size, dtype=np.int32)
+    for footprint in footprints:
+        counts[footprint] += 1  # a segment's footprint has no repeated pixel
+    for _ in range(max_passes):
+        changed = False
+        k = 1
+        while k < len(points) - 1:
+            before, corner, after = points[k - 1], points[k], points[k + 1]
+            saving = np.hypot(*(corner - before)) + np.hypot(*(after - corner)) - np.hypot(*(after - before))
+            if saving > 1e-6 and segment_is_free(free, before, after):
+                pixels, times = np.unique(np.concatenate(footprints[k - 1 : k + 1]), return_counts=True)
+                lost = pixels[counts[pixels] == times]
+                within_margin = segment_footprint(before, after, radius_px - margin_px, shape)
+                if np.isin(lost, within_margin, assume_unique=True).all():
+                    shortcut = segment_footprint(before, after, radius_px, shape)
+                    counts[footprints[k - 1]] -= 1
+                    counts[footprints[k]] -= 1
+                    counts[shortcut] += 1
+                    footprints[k - 1 : k + 1] = [shortcut]
+                    del points[k]
+                    changed = True
+                    continue  # the new corner at k may go as well
+            k += 1
+        if not changed:
+            break
+    return np.array(points)
 
 
 # --------------------------------------------------------------------------------------------
@@ -754,7 +996,7 @@ def plan_coverage(
     axes = (0, 1) if sweep_axis is None else (sweep_axis,)
     plans = []
     for axis in axes:
-        cells, tour, pixel_path = _plan_for_axis(
+        cells, cell_order, pixel_path = _plan_for_axis(
             free_space, axis, resolution, tool_width, start_pixel, last_cells
         )
         waypoints = np.vstack(
@@ -764,9 +1006,8 @@ def plan_coverage(
         waypoints = waypoints[np.concatenate(([True], np.any(np.diff(waypoints, axis=0) != 0, axis=1)))]
         length = polyline_length(waypoints)
         duration = driving_time(waypoints, max_speed, max_turn_rate)
-        cell_order = [cell_index for cell_index, _ in tour]
         plans.append(Plan(waypoints, cells, axis, length, duration, cell_order))
-    return min(plans, key=lambda plan: plan.duration)
+    return min(plans, key=lambda plan: plan.length)
 
 
 def _nearest_free_pixel(centre_free: np.ndarray, pixel: tuple[int, int]) -> tuple[int, int]:
@@ -783,17 +1024,23 @@ def _plan_for_axis(free_space, sweep_axis, resolution, tool_width, start_pixel, 
     """Decompose, sweep, route and join for one axis: the cells, the route and the pixel path."""
     max_jump = max_lane_spacing_px(tool_width, resolution) // 2
     cells = decompose(free_space.free, sweep_axis, max_jump=max_jump)
-    sweeps = []
-    for cell in cells:
-        cell_swaths = swaths(cell, free_space.free, tool_width, resolution)
-        narrow = is_narrow(cell, tool_width, resolution)
-        sweeps.append(cell_sweeps(cell, cell_swaths, free_space.free, narrow))
-    chosen_last = {index for index, cell in enumerate(cells) if last_cells is not None and last_cells(cell)}
-    tour = route(sweeps, start_pixel, free_space.pairwise_distances, chosen_last)
+    units = [
+        unit
+        for index, cell in enumerate(cells)
+        for unit in cell_units(cell, index, free_space.free, tool_width, resolution, max_jump)
+    ]
+    variant_count = max(len(unit.variants) for unit in units)
+    # Pairs (k, k ^ 1) repeat, so padding every unit to the same variant count keeps the pairing.
+    variants = [[unit.variants[k % len(unit.variants)] for k in range(variant_count)] for unit in units]
+    chosen_last = {k for k, unit in enumerate(units) if last_cells is not None and last_cells(cells[unit.cell])}
+    tour = route(variants, start_pixel, free_space.pairwise_distances, chosen_last)
     pieces = [np.array([start_pixel])]
     position = start_pixel
-    for cell_index, variant in tour:
-        sweep = sweeps[cell_index][variant]
+    for unit_index, variant in tour:
+        sweep = variants[unit_index][variant]
         pieces += [free_space.transit(position, tuple(sweep[0])), sweep]
         position = tuple(sweep[-1])
-    return cells, tour, drop_redundant_points(np.vstack(pieces))
+    cell_order = list(dict.fromkeys(units[unit_index].cell for unit_index, _ in tour))
+    path = drop_redundant_points(np.vstack(pieces))
+    path = drop_idle_corners(path, free_space.free, tool_width / 2 / resolution, SHORTCUT_MARGIN_M / resolution)
+    return cells, cell_order, path
