@@ -7,7 +7,48 @@ raster. In the ``sequential`` protocol it plans cell by cell, as the cells open:
 sweep stays clear of its closed bounds and sweeps the sub-cells holding goal markers last (so
 that the cell, which clears when its last goal is reached, is fully swept by then), then an A*
 transit drives to the exit landmark of the next cell. In ``open`` the whole layout is one plan.
-In a team, robot ``agent`` of ``n_agents`` takes its share (:func:`team_share`).
+
+Teams (``n_agents`` = K > 1, :func:`team_split`, :func:`plan_team`). Cabin aisles and legroom
+pockets are single file (a 0.35 m robot in a 0.48 m aisle), so the split is built so that robots
+never have to pass each other, and they leave in a fixed *convoy* order:
+
+- **Work units.** The region to clean (the whole layout in ``open``, one cell at a time in
+  ``sequential``) is cut into units around its goal markers: each pixel goes to the goal marker
+  nearest to it along the free space (a multi-source Dijkstra, so every unit is connected). In a
+  cabin a unit is one legroom pocket (or half of a galley zone) with the stretch of aisle in
+  front of it. A region without goal markers is cut into strips across x instead.
+- **Shares.** The units are ordered along the cabin (x), farthest from where the team comes in
+  first (ties: larger y first), and cut into K contiguous groups that minimise the largest
+  estimated finishing time (departure delay + travel to the group + the planned sweep
+  durations of its units; a small dynamic programme). Group ``r`` goes to the robot of *rank*
+  ``r``; with fewer units than robots the last ranks get an empty share and wait where they are.
+  The shares are disjoint and cover the region.
+- **Convoy order.** Ranks are fixed for the episode. In the first stage they are assigned from
+  the start poses (:func:`cabinbench.world.start_poses`: all robots start in the first cell) by
+  minimising the summed squared travel distance, which gives the farthest group to the robot
+  nearest the way out. Rank ``r`` sets off ``r × DEPARTURE_GAP`` seconds after the team's
+  start (or after the cell cleared, below), so robots enter the aisle in rank order, the leader
+  heading farthest: nobody ever has to pass a robot in front, and a robot's own sweep never
+  reaches back into a unit that a robot behind it still has to drive through.
+- **Sequential.** The team works through the cells together: each cell is split as above
+  (entered at the exit landmark of the previous cell). Every robot sweeps its share up to the
+  first touch of its last goal marker (the sweep takes the pockets holding goals last) and waits
+  there, at the dead end of a pocket, out of everyone's way. The cell clears when the last robot
+  reaches its goal; all robots see that in ``info["cells_cleared"]`` on the same step and leave
+  in rank order, ``DEPARTURE_GAP`` apart: each finishes the rest of its sweep (the way out of
+  the pocket) and drives into the next cell, rank 0 through the exit landmark (which moves the
+  team's cell on). In the last cell every robot holds its final goal back until the rest of its
+  share is swept, so the episode (which ends on the last goal) ends only when all shares are.
+- **Open.** One stage over the whole layout: each robot drives to its block of the cabin and
+  sweeps it; the blocks are ordered along the cabin and the leader takes the farthest.
+- **Safety.** A robot whose lidar shows another robot right in front of it stops driving
+  forward (it may still turn) until the way is clear, for at most ``BLOCKED_PATIENCE`` seconds.
+  The plans make such meetings rare (a robot catching up at a pocket mouth); this keeps them
+  from turning into contacts.
+
+A baseline only sees its own ``info``, so the team coordinates through the plans (every robot
+computes the same split, cached per layout) and the team's shared ``info`` entries (``time``,
+``cells_cleared``).
 
 Following: a :class:`~.path_following.PathFollower` turns the waypoints into velocity commands
 from ``info["pose"]``.
@@ -20,41 +61,64 @@ Demonstrations for GAIL: :func:`record_demonstrations` runs this baseline in the
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+import math
+from collections import OrderedDict
+from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import ndimage
+from scipy.optimize import linear_sum_assignment
+from scipy.sparse.csgraph import dijkstra
 
 from cabinbench.layout import RESOLUTION, Layout
+from cabinbench.lidar import LidarConfig
 from cabinbench.world import TIME_STEP, start_poses
 
 from .base import Baseline, EpisodeContext
-from .coverage_planning import FreeSpace, pixels_to_world, plan_coverage, world_to_pixel
+from .coverage_planning import FreeSpace, driving_time, pixels_to_world, plan_coverage, world_to_pixel
 from .path_following import PathFollower
 
 BOUND_MARGIN = 0.03  # metres kept between the robot's disc and a closed bound
+DEPARTURE_GAP = 2.5  # seconds between robots setting off, in convoy (rank) order
+FOLLOW_GAP = 0.12  # metres: stop driving forward when another robot is this close in front
+ON_WAYPOINT = 0.05  # metres: a leg whose first waypoint is this close starts at its second
+BLOCKED_PATIENCE = 5.0  # seconds a robot waits for a robot in front before it drives on anyway
+MIN_SWEEP_COMPONENT_PX = 4  # smaller scraps of a share are left to the neighbouring sweeps
+GOAL_TOUCH_MARGIN = 0.03  # metres inside the reach at which a sweep counts as touching a goal
+STAGING_GAP = 0.06  # metres between a staged robot and one passing along the through way
+STAGING_MARGIN = 1.0  # seconds added to the estimated back-out time before the convoy moves on
+THROUGH_BAND = 0.2  # metres each side of the through way left to the robots driving along it
+MERGE_BOUNDARY_PX = 3
+LANE_END_SLACK = 0.12  # metres around a transit's ends where it may use either side of the aisle  # units meeting along this many pixels or more are merged
 
 
 @dataclass
 class Leg:
-    """One stretch of the plan: ``waypoints`` (N, 2) metres; ``purpose`` is "sweep", "goals" or "exit"."""
+    """One stretch of the plan: ``waypoints`` (N, 2) metres; ``purpose`` is "sweep", "goals",
+    "exit" or "transit". A leg starts once cell ``after_cell`` is cleared (None: at once) and
+    then ``delay`` more seconds have passed (from that event, or from the episode start)."""
 
     waypoints: np.ndarray
     cell: int
     purpose: str
+    after_cell: int | None = None
+    delay: float = 0.0
+    gate: bool = False  # a departure gate: ``delay`` is set from the whole team's plans
 
 
 def plan_layout(layout: Layout, protocol: str = "sequential", agent: int = 0, n_agents: int = 1) -> list[Leg]:
     """The whole plan for robot ``agent`` of a team of ``n_agents``, as legs in driving order."""
+    if n_agents > 1:
+        return plan_team(layout, protocol, agent, n_agents)
     start = start_poses(layout, n_agents)[agent, :2]
     drivable = layout.centre_free  # already keeps the disc 1 cm off every wall
     if protocol == "open":
-        region = team_share(layout, drivable, agent, n_agents)
-        return [Leg(_plan(layout, region, start, goals=None).waypoints, 0, "sweep")]
+        return [Leg(_plan(layout, drivable, start, goals=None).waypoints, 0, "sweep")]
     legs, position = [], start
     first_cell = max(0, layout.cleared_cells - 1)
     for cell in range(first_cell, len(layout.cells)):
         if cell >= layout.cleared_cells:
-            region = team_share(layout, drivable & _cell_region(layout, cell), agent, n_agents)
+            region = drivable & _cell_region(layout, cell)
             goals = layout.cells[cell].goals
             plan = _plan(layout, region, position, goals)
             if cell + 1 == len(layout.cells) and len(goals):
@@ -131,7 +195,9 @@ def _cell_region(layout: Layout, cell: int) -> np.ndarray:
 def team_share(layout: Layout, region: np.ndarray, agent: int, n_agents: int) -> np.ndarray:
     """Robot ``agent``'s part of ``region``: the region cut across the cabin's length into
     ``n_agents`` strips of equal coverable area (robot 0 nearest the start). Strips follow the
-    cabin's long axis so that each robot keeps whole legroom pockets."""
+    cabin's long axis so that each robot keeps whole legroom pockets. (The team planner uses
+    :func:`team_split`, which cuts between pockets; this is its fallback for regions without
+    goal markers.)"""
     if n_agents == 1:
         return region
     columns = np.flatnonzero(region.any(axis=0))
@@ -143,6 +209,510 @@ def team_share(layout: Layout, region: np.ndarray, agent: int, n_agents: int) ->
     return share
 
 
+# ------------------------------------------------------------------------------------ teams
+
+
+@dataclass
+class TeamStage:
+    """One stage of the team's work: ``cell`` (-1 for the whole layout in ``open``), the point
+    where the team comes in, and per rank the share (robot-centre pixels) and its goal markers."""
+
+    cell: int
+    entry: np.ndarray
+    shares: list[np.ndarray]
+    goals: list[np.ndarray]
+    through: np.ndarray  # the way the convoy drives through (swept by driving, not by sweeps)
+    way: np.ndarray  # the centre line of that way (N, 2), metres
+    sweeps: list[np.ndarray]  # by rank: what that robot sweeps (its share, less the band others drive)
+    estimates: list[float] = field(default_factory=list)  # estimated finishing time per rank (s)
+
+
+@dataclass
+class TeamSplit:
+    stages: list[TeamStage]
+    ranks: np.ndarray  # ranks[agent]: the robot's place in the convoy (0 leads, takes the farthest)
+
+
+_SPLIT_CACHE: OrderedDict = OrderedDict()
+_SPLIT_CACHE_SIZE = 8
+
+
+def team_split(layout: Layout, protocol: str, n_agents: int) -> TeamSplit:
+    """The team's division of work (every robot of a team computes the same; cached)."""
+    key = (layout.name, layout.content_hash, protocol, n_agents)
+    if key in _SPLIT_CACHE:
+        _SPLIT_CACHE.move_to_end(key)
+        return _SPLIT_CACHE[key]
+    starts = start_poses(layout, n_agents)[:, :2]
+    drivable = _reachable(layout)
+    if protocol == "open":
+        stages = [_stage(layout, -1, drivable, layout.goals, starts[0], n_agents, None, True)]
+        corridor = drivable
+    else:
+        first = layout.cleared_cells
+        stages, entry = [], starts[0]
+        for cell in range(first, len(layout.cells)):
+            if cell > 0:
+                exits = layout.passages[cell - 1].exits
+                entry = exits[np.argmin(np.hypot(*(exits - entry).T))]
+            region = _cell_region(layout, cell) & drivable
+            exit_point = None
+            if cell < len(layout.passages):
+                exits = layout.passages[cell].exits
+                exit_point = exits[np.argmin(np.hypot(*(exits - entry).T))]
+            stages.append(_stage(layout, cell, region, layout.cells[cell].goals, entry, n_agents, exit_point,
+                                 cell == first))
+        start_cell = layout.cell_raster[layout.to_pixel(*layout.start[:2])]
+        corridor = drivable & (layout.cell_raster >= min(start_cell, first)) & (layout.cell_raster <= max(first, 0))
+        corridor &= ~_near_bounds(layout, first) if first < len(layout.passages) else True
+    split = TeamSplit(stages, _assign_ranks(layout, corridor, starts, stages[0].shares))
+    _SPLIT_CACHE[key] = split
+    if len(_SPLIT_CACHE) > _SPLIT_CACHE_SIZE:
+        _SPLIT_CACHE.popitem(last=False)
+    return split
+
+
+def _reachable(layout: Layout) -> np.ndarray:
+    """Robot-centre pixels connected to the start (4-connected, as the planner sees them)."""
+    labels, _ = ndimage.label(layout.centre_free)
+    start = layout.to_pixel(*layout.start[:2])
+    return labels == labels[start] if labels[start] else layout.centre_free.copy()
+
+
+def _stage(layout: Layout, cell: int, region: np.ndarray, goals: np.ndarray, entry: np.ndarray, n_agents: int,
+           exit_point: np.ndarray | None, first: bool) -> TeamStage:
+    units, unit_goals = work_units(layout, region, goals, entry, n_agents)
+    way = _through_way(layout, region, entry, exit_point if exit_point is not None else _far_end(layout, region, entry))
+    through = _near_polyline(layout, way, THROUGH_BAND) & region
+    units, unit_goals = _merge_open_units(units & ~through, unit_goals)
+    robot = layout.robot
+    durations = np.array([_sweep_duration(layout, unit, entry) for unit in units])
+    travel = _geodesic_from(layout, region, entry, units) / robot.max_speed
+    groups, estimates = _partition(durations, travel, n_agents)
+    shares, share_goals = [], []
+    for begin, end in groups:
+        shares.append(np.any(units[begin:end], axis=0) if end > begin else np.zeros_like(region))
+        share_goals.append(np.concatenate(unit_goals[begin:end]) if end > begin else np.zeros((0, 2)))
+    sweeps = _band_owners(layout, way, through, shares, first=first, dead_end=exit_point is None)
+    shares[0] = shares[0] | (through & ~np.any(sweeps, axis=0))  # the leader drives the rest of the way
+    for rank, sweep in enumerate(sweeps):
+        shares[rank] = shares[rank] | (sweep & through)
+    return TeamStage(cell, np.asarray(entry, dtype=float), shares, share_goals, through, way, sweeps, estimates)
+
+
+def _band_owners(layout: Layout, way: np.ndarray, through: np.ndarray, shares: list[np.ndarray],
+                 first: bool, dead_end: bool) -> list[np.ndarray]:
+    """What each rank sweeps: its share, plus the stretch of the through band inside its own
+    stretch of the way where no other robot will drive while it sweeps: behind everyone for
+    the last robot to set off in the first stage (the others have left the start zone by
+    then), and beyond everyone for the leader in a dead end (the last cell, or ``open``)."""
+    sweeps = [share.copy() for share in shares]
+    busy = [rank for rank, share in enumerate(shares) if share.any()]
+    if len(busy) < 2 or len(way) < 2:
+        return sweeps
+    band_s = np.full(through.shape, np.nan)
+    band_s[through] = _arc_position(way, layout, through)
+    spans = []
+    for rank in busy:
+        along = _arc_position(way, layout, shares[rank])
+        spans.append((along.min(), along.max()))
+    margin = 2 * layout.robot.radius
+    last, (low, high) = busy[-1], spans[-1]
+    if first and all(other_low > high + margin for other_low, _ in spans[:-1]):
+        sweeps[last] |= through & (band_s <= high)
+    low, high = spans[0]
+    if dead_end and busy[0] == 0 and all(other_high < low - margin for _, other_high in spans[1:]):
+        sweeps[0] |= through & (band_s >= low)
+    return sweeps
+
+
+def _arc_position(way: np.ndarray, layout: Layout, mask: np.ndarray) -> np.ndarray:
+    """For each pixel of ``mask``, how far along ``way`` (metres) its nearest point lies."""
+    xs, ys = layout.pixel_centres()
+    rows, cols = np.nonzero(mask)
+    points = np.column_stack([xs[cols], ys[rows]])
+    starts, ends = way[:-1], way[1:]
+    direction = ends - starts
+    length = np.sqrt(np.maximum((direction**2).sum(axis=1), 1e-12))
+    t = np.clip(((points[:, None, :] - starts[None]) * direction[None]).sum(axis=2) / length[None] ** 2, 0, 1)
+    nearest = starts[None] + t[..., None] * direction[None]
+    segment = np.argmin(((points[:, None, :] - nearest) ** 2).sum(axis=2), axis=1)
+    offsets = np.concatenate([[0.0], np.cumsum(length)])
+    return offsets[segment] + t[np.arange(len(points)), segment] * length[segment]
+
+
+def _through_way(layout: Layout, region: np.ndarray, entry: np.ndarray, target) -> np.ndarray:
+    """The shortest way (N, 2) from ``entry`` to ``target``: the aisle the convoy drives along.
+    Nobody sweeps the band ``THROUGH_BAND`` around it; the robots driving through cover it."""
+    xs, ys = layout.pixel_centres()
+    row, col = _nearest_pixel(region, layout, np.asarray(target, dtype=float))
+    row0, col0 = _nearest_pixel(region, layout, entry)
+    path = FreeSpace(region).transit((row0, col0), (row, col))
+    return np.column_stack([xs[path[:, 1]], ys[path[:, 0]]])
+
+
+def _far_end(layout: Layout, region: np.ndarray, entry: np.ndarray) -> np.ndarray:
+    """The end of ``region`` away from ``entry`` along x (the cabin's length), level with the
+    entry as far as the region allows: where the aisle leads to."""
+    xs, ys = layout.pixel_centres()
+    rows, cols = np.nonzero(region)
+    away = cols.max() if entry[0] <= xs[cols].mean() else cols.min()
+    rows = rows[cols == away]
+    return np.array([xs[away], ys[rows[np.argmin(np.abs(ys[rows] - entry[1]))]]])
+
+
+def _near_polyline(layout: Layout, points: np.ndarray, distance: float) -> np.ndarray:
+    xs, ys = layout.pixel_centres()
+    grid_x, grid_y = np.meshgrid(xs, ys)
+    near = np.zeros(layout.raster_shape, dtype=bool)
+    if len(points) == 1:
+        points = np.vstack([points, points])
+    for (x0, y0), (x1, y1) in zip(points[:-1], points[1:]):
+        direction = np.array([x1 - x0, y1 - y0])
+        length_sq = max(float(direction.dot(direction)), 1e-12)
+        t = np.clip(((grid_x - x0) * direction[0] + (grid_y - y0) * direction[1]) / length_sq, 0, 1)
+        near |= np.hypot(grid_x - (x0 + t * direction[0]), grid_y - (y0 + t * direction[1])) <= distance
+    return near
+
+
+def _merge_open_units(units: np.ndarray, unit_goals: list[np.ndarray]):
+    """Merge units that meet along a boundary of ``MERGE_BOUNDARY_PX`` pixels or more (two halves
+    of a galley zone): robots sweeping both sides at once would meet on it. Keeps the order (a
+    merged unit takes the place of its first member)."""
+    count = len(units)
+    label = np.full(units.shape[1:], -1)
+    for k, unit in enumerate(units):
+        label[unit] = k
+    pairs = np.concatenate([
+        np.column_stack([label[:, :-1].ravel(), label[:, 1:].ravel()]),
+        np.column_stack([label[:-1, :].ravel(), label[1:, :].ravel()]),
+    ])
+    pairs = pairs[(pairs >= 0).all(axis=1) & (pairs[:, 0] != pairs[:, 1])]
+    pairs = np.sort(pairs, axis=1)
+    parent = list(range(count))
+
+    def root(k):
+        while parent[k] != k:
+            k = parent[k]
+        return k
+
+    if len(pairs):
+        found, lengths = np.unique(pairs, axis=0, return_counts=True)
+        for (a, b), length in zip(found, lengths):
+            if length >= MERGE_BOUNDARY_PX:
+                ra, rb = root(int(a)), root(int(b))
+                parent[max(ra, rb)] = min(ra, rb)
+    roots = [root(k) for k in range(count)]
+    kept = sorted(set(roots))
+    merged = np.array([np.any(units[[k for k in range(count) if roots[k] == r]], axis=0) for r in kept])
+    goals = [np.concatenate([unit_goals[k] for k in range(count) if roots[k] == r]) for r in kept]
+    return merged.reshape(len(kept), *units.shape[1:]), goals
+
+
+def work_units(layout: Layout, region: np.ndarray, goals: np.ndarray, entry: np.ndarray, n_agents: int):
+    """``region`` cut into work units, ordered farthest from ``entry`` (along x) first.
+
+    With goal markers: every pixel joins the goal nearest along the free space (in a cabin, one
+    legroom pocket and the aisle in front of it per unit). Without: ``3 × n_agents`` strips of
+    equal area across x. Returns (unit masks (U, H, W) bool, goal markers (M_u, 2) per unit).
+    """
+    region = np.asarray(region, dtype=bool)
+    free = FreeSpace(region)
+    goal_pixels = [_nearest_pixel(region, layout, goal) for goal in goals]
+    if goal_pixels:
+        nodes = np.array([free.node_id[pixel] for pixel in goal_pixels])
+        unique_nodes, first_goal = np.unique(nodes, return_index=True)
+        _, _, sources = dijkstra(free.graph, directed=False, indices=unique_nodes, min_only=True, return_predecessors=True)
+        label = np.full(region.shape, -1, dtype=int)
+        reached = sources >= 0
+        node_to_unit = {int(node): k for k, node in enumerate(unique_nodes)}
+        flat_units = np.full(len(sources), -1)
+        flat_units[reached] = [node_to_unit[int(s)] for s in sources[reached]]
+        label[region] = flat_units
+        if (label[region] < 0).any():  # pixels cut off from every goal join the nearest unit
+            _, (rows, cols) = ndimage.distance_transform_edt(label < 0, return_indices=True)
+            stray = region & (label < 0)
+            label[stray] = label[rows[stray], cols[stray]]
+        units = [label == k for k in range(len(unique_nodes))]
+        unit_goals = [goals[[g for g, node in enumerate(nodes) if node == unique_nodes[k]]] for k in range(len(unique_nodes))]
+        keys = [(goals[first_goal[k], 0], goals[first_goal[k], 1]) for k in range(len(unique_nodes))]
+    else:
+        parts = 3 * n_agents
+        units = [team_share(layout, region, k, parts) for k in range(parts)]
+        units = [unit for unit in units if unit.any()]
+        xs, ys = layout.pixel_centres()
+        keys = [(xs[np.nonzero(unit)[1]].mean(), ys[np.nonzero(unit)[0]].mean()) for unit in units]
+        unit_goals = [np.zeros((0, 2)) for _ in units]
+    centre_x = np.mean([key[0] for key in keys]) if keys else 0.0
+    direction = 1.0 if entry[0] <= centre_x else -1.0  # the far end is the one away from the entry
+    order = sorted(range(len(units)), key=lambda k: (-direction * round(keys[k][0], 2), -round(keys[k][1], 2)))
+    return np.array([units[k] for k in order]).reshape(len(order), *region.shape), [unit_goals[k] for k in order]
+
+
+def _nearest_pixel(region: np.ndarray, layout: Layout, point: np.ndarray) -> tuple[int, int]:
+    """The pixel of ``region`` nearest to ``point`` (metres)."""
+    rows, cols = np.nonzero(region)
+    xs, ys = layout.pixel_centres()
+    k = int(np.argmin((xs[cols] - point[0]) ** 2 + (ys[rows] - point[1]) ** 2))
+    return int(rows[k]), int(cols[k])
+
+
+def _geodesic_from(layout: Layout, region: np.ndarray, point: np.ndarray, masks) -> np.ndarray:
+    """Free-space distance (metres) from ``point`` to the nearest pixel of each mask."""
+    free = FreeSpace(region)
+    source = free.node_id[_nearest_pixel(region, layout, point)]
+    distances = np.full(region.shape, np.inf)
+    distances[region] = dijkstra(free.graph, directed=False, indices=source)
+    return np.array([distances[mask].min() if mask.any() else np.inf for mask in masks]) * RESOLUTION
+
+
+def _geodesic_map(layout: Layout, region: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """Free-space distance (pixels) from ``point`` to every pixel of ``region`` (inf elsewhere)."""
+    free = FreeSpace(region)
+    distances = np.full(region.shape, np.inf)
+    distances[region] = dijkstra(free.graph, directed=False, indices=free.node_id[_nearest_pixel(region, layout, point)])
+    return distances
+
+
+def _sweep_duration(layout: Layout, unit: np.ndarray, entry: np.ndarray) -> float:
+    """Estimated seconds to sweep ``unit``: each of its pieces planned on its own."""
+    xs, ys = layout.pixel_centres()
+    labels, count = ndimage.label(unit)
+    total = 0.0
+    for label in range(1, count + 1):
+        piece = labels == label
+        if piece.sum() >= MIN_SWEEP_COMPONENT_PX:
+            row, col = _nearest_pixel(piece, layout, entry)
+            total += _plan(layout, piece, np.array([xs[col], ys[row]]), None).duration
+    return total
+
+
+def _partition(durations: np.ndarray, travel: np.ndarray, n_agents: int) -> tuple[list[tuple[int, int]], list[float]]:
+    """Cut the ordered units into ``n_agents`` contiguous groups (rank r gets group r, empty
+    groups last) minimising the largest estimated finishing time, where rank r finishes at
+    r × DEPARTURE_GAP + travel to its farthest unit (the way there passes the others) + the
+    durations of its units."""
+    count = len(durations)
+    groups_used = min(n_agents, count)
+    prefix = np.concatenate([[0.0], np.cumsum(durations)])
+
+    def finish(rank: int, begin: int, end: int) -> float:
+        return rank * DEPARTURE_GAP + float(np.max(travel[begin:end])) + prefix[end] - prefix[begin]
+
+    best = np.full((groups_used + 1, count + 1), np.inf)
+    cut = np.zeros((groups_used + 1, count + 1), dtype=int)
+    best[0, 0] = 0.0
+    for rank in range(groups_used):
+        for end in range(rank + 1, count + 1):
+            for begin in range(rank, end):
+                value = max(best[rank, begin], finish(rank, begin, end))
+                if value < best[rank + 1, end] - 1e-9:
+                    best[rank + 1, end], cut[rank + 1, end] = value, begin
+    groups, end = [], count
+    for rank in range(groups_used, 0, -1):
+        groups.append((int(cut[rank, end]), end))
+        end = cut[rank, end]
+    groups = groups[::-1] + [(count, count)] * (n_agents - groups_used)
+    estimates = [finish(rank, b, e) if e > b else 0.0 for rank, (b, e) in enumerate(groups)]
+    return groups, estimates
+
+
+def _assign_ranks(layout: Layout, corridor: np.ndarray, starts: np.ndarray, shares: list[np.ndarray]) -> np.ndarray:
+    """ranks[agent]: minimum summed squared distance from the start poses to the first stage's
+    shares (squares give the farthest share to the robot nearest the way out)."""
+    cost = np.zeros((len(starts), len(shares)))
+    for agent, start in enumerate(starts):
+        distance = _geodesic_from(layout, corridor | np.any(shares, axis=0), start, shares)
+        cost[agent] = np.where(np.isfinite(distance), distance, 1e3) ** 2
+    cost[:, [not share.any() for share in shares]] = 0.0
+    agents, ranks = linear_sum_assignment(cost)
+    result = np.empty(len(starts), dtype=int)
+    result[agents] = ranks
+    return result
+
+
+_PLAN_CACHE: OrderedDict = OrderedDict()
+
+
+def plan_team(layout: Layout, protocol: str, agent: int, n_agents: int) -> list[Leg]:
+    """Robot ``agent``'s legs in a team of ``n_agents`` (see the module docstring)."""
+    return list(team_plans(layout, protocol, n_agents)[agent])
+
+
+def team_plans(layout: Layout, protocol: str, n_agents: int) -> list[list[Leg]]:
+    """Every robot's legs (computed once per layout and team: each robot's baseline instance
+    takes its own). The departure gates of a cell are set from all robots' plans: once the cell
+    clears, every robot backs out to its staging point (clear of the aisle), and rank r drives
+    on ``T + r × DEPARTURE_GAP`` seconds after the clear, T being the longest estimated back-out."""
+    key = (layout.name, layout.content_hash, protocol, n_agents)
+    if key in _PLAN_CACHE:
+        _PLAN_CACHE.move_to_end(key)
+        return _PLAN_CACHE[key]
+    split = team_split(layout, protocol, n_agents)
+    plans = [_robot_legs(layout, split, agent, n_agents) for agent in range(n_agents)]
+    robot = layout.robot
+    back_out: dict[int, float] = {}
+    for legs in plans:
+        for leg in legs:
+            if leg.purpose == "out":
+                duration = driving_time(leg.waypoints, robot.max_speed, robot.max_turn_rate) + math.pi / robot.max_turn_rate
+                back_out[leg.cell] = max(back_out.get(leg.cell, 0.0), duration + STAGING_MARGIN)
+    for agent, legs in enumerate(plans):
+        for leg in legs:
+            if leg.gate:
+                leg.delay = back_out.get(leg.after_cell, 0.0) + split.ranks[agent] * DEPARTURE_GAP
+    _PLAN_CACHE[key] = plans
+    if len(_PLAN_CACHE) > _SPLIT_CACHE_SIZE:
+        _PLAN_CACHE.popitem(last=False)
+    return plans
+
+
+def _robot_legs(layout: Layout, split: TeamSplit, agent: int, n_agents: int) -> list[Leg]:
+    rank = int(split.ranks[agent])
+    position = start_poses(layout, n_agents)[agent, :2]
+    drivable = _reachable(layout)
+    if split.stages[0].cell < 0:  # open: one stage
+        stage = split.stages[0]
+        share = stage.sweeps[rank]
+        if not share.any():
+            return []
+        waypoints = _sweep_path(layout, share, position, None, drivable)
+        return [Leg(waypoints, -1, "sweep", None, rank * DEPARTURE_GAP)]
+
+    legs: list[Leg] = []
+    wait = (None, rank * DEPARTURE_GAP, False)  # the next leg starts after (cell cleared, delay, gate)
+    at_cell = layout.cell_raster[layout.to_pixel(*position)]
+    last_cell = len(layout.cells) - 1
+
+    def add(waypoints, cell, purpose):
+        nonlocal wait
+        if len(waypoints) > 1:
+            legs.append(Leg(np.asarray(waypoints, dtype=float), cell, purpose, *wait))
+            wait = (None, 0.0, False)
+
+    for stage in split.stages:
+        cell, share, goals = stage.cell, stage.sweeps[rank], stage.goals[rank]
+        if not share.any():
+            continue  # nothing for this robot here: it waits where it is
+        corridor = (drivable & (layout.cell_raster >= min(at_cell, cell)) & (layout.cell_raster <= cell)
+                    & ~_near_bounds(layout, min(at_cell, cell) - 1) & ~_near_bounds(layout, cell))
+        corridor |= share
+        if rank == 0 and cell > 0 and at_cell < cell:  # the leader moves the team on through the exit
+            exits = layout.passages[cell - 1].exits
+            exit_point = exits[np.argmin(np.hypot(*(exits - position).T))]
+            add(_transit(layout, corridor, position, exit_point), cell - 1, "exit")
+            position = exit_point
+        if cell == last_cell and len(goals):
+            # Reaching the last goal ends the episode: hold back this robot's final goal until
+            # the rest of its share is swept.
+            sweep = _sweep_path(layout, share, position, goals, corridor)
+            final_goal = goals[np.argmax(_first_touches(sweep, goals, layout.robot.radius))]
+            keep_off = _near_points(layout, final_goal[None], layout.robot.radius + 0.02)
+            sweep = _sweep_path(layout, share & ~keep_off, position, goals, corridor & ~keep_off)
+            add(sweep, cell, "sweep")
+            ways = share | (keep_off & drivable) | corridor
+            row, col = _nearest_pixel(ways, layout, final_goal)  # goals may sit where the disc cannot
+            xs, ys = layout.pixel_centres()
+            position = np.array([xs[col], ys[row]])
+            add(_transit(layout, ways, sweep[-1], position), cell, "goals")
+            # Until the team's last goal ends the episode, sweep what the hold-back left.
+            spot = keep_off & drivable & (share | corridor)
+            if spot[layout.to_pixel(*position)]:
+                add(_plan(layout, spot, position, None).waypoints, cell, "sweep")
+        else:
+            sweep = _sweep_path(layout, share, position, goals, corridor)
+            if len(goals):
+                # Sweep up to the first touch of the last goal and wait there for the cell to
+                # clear; then back out to the staging point, clear of the aisle, and finish the
+                # sweep on the way out when this robot's turn in the convoy comes.
+                before, after = _split_at_last_goal(sweep, goals, layout.robot.radius - GOAL_TOUCH_MARGIN)
+                out, rest = _split_at_staging(after, stage.way, layout.robot.radius)
+                add(before, cell, "sweep")
+                wait = (cell, 0.0, False)
+                add(out, cell, "out")
+                wait = (cell, 0.0, True)
+                add(rest, cell, "sweep")
+            else:
+                add(sweep, cell, "sweep")
+                wait = (cell, 0.0, True)
+            position = sweep[-1]
+        at_cell = cell
+    return legs
+
+
+def _split_at_staging(path: np.ndarray, way: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """``path`` cut where it first comes closer to the through way than a passing robot needs
+    (2 radii + ``STAGING_GAP``); the first part is empty when it starts that close."""
+    steps = [np.linspace(a, b, max(2, int(np.hypot(*(b - a)) / 0.02) + 1)) for a, b in zip(path[:-1], path[1:])]
+    if not steps:
+        return path[:1], path
+    clearance = 2 * radius + STAGING_GAP
+    for index, dense in enumerate(steps):
+        near = _distance_to_polyline(dense, way) < clearance
+        if near.any():
+            k = int(np.argmax(near))
+            if index == 0 and k == 0:
+                return path[:1], path
+            point = dense[max(k - 1, 0)]
+            return np.vstack([path[: index + 1], point]), np.vstack([point, path[index + 1:]])
+    return path, path[-1:]
+
+
+def _distance_to_polyline(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
+    if len(polyline) == 1:
+        return np.hypot(*(points - polyline[0]).T)
+    starts, ends = polyline[:-1], polyline[1:]
+    direction = ends - starts
+    length_sq = np.maximum((direction**2).sum(axis=1), 1e-12)
+    t = np.clip(((points[:, None, :] - starts[None]) * direction[None]).sum(axis=2) / length_sq[None], 0, 1)
+    nearest = starts[None] + t[..., None] * direction[None]
+    return np.sqrt(((points[:, None, :] - nearest) ** 2).sum(axis=2)).min(axis=1)
+
+
+def _split_at_last_goal(waypoints: np.ndarray, goals: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """The path cut where it first comes within ``reach`` of the goal it reaches last."""
+    touch = float(np.max(_first_touches(waypoints, goals, reach)))
+    lengths = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(waypoints, axis=0).T))])
+    k = int(np.searchsorted(lengths, touch, side="right"))
+    if k >= len(waypoints):
+        return waypoints, waypoints[-1:]
+    a, b = waypoints[k - 1], waypoints[k]
+    t = (touch - lengths[k - 1]) / max(lengths[k] - lengths[k - 1], 1e-12)
+    point = a + t * (b - a)
+    return np.vstack([waypoints[:k], point]), np.vstack([point, waypoints[k:]])
+
+
+def _sweep_path(layout: Layout, share: np.ndarray, start: np.ndarray, goals: np.ndarray | None,
+                corridor: np.ndarray) -> np.ndarray:
+    """One polyline (metres) from ``start`` that sweeps every piece of ``share``: the pieces
+    (4-connected) nearest first, joined by A* transits through ``corridor | share``."""
+    labels, count = ndimage.label(share)
+    sizes = ndimage.sum_labels(np.ones_like(labels), labels, index=np.arange(1, count + 1))
+    remaining = [k + 1 for k in range(count) if sizes[k] >= MIN_SWEEP_COMPONENT_PX]
+    xs, ys = layout.pixel_centres()
+    path = [np.asarray(start, dtype=float)[None, :]]
+    position = np.asarray(start, dtype=float)
+    ways = corridor | share
+    while remaining:
+        # the piece nearest along the free space, entered at its nearest pixel
+        distance = _geodesic_map(layout, ways, position)
+        nearest = [float(distance[labels == label].min()) for label in remaining]
+        label = remaining.pop(int(np.argmin(nearest)))
+        piece = labels == label
+        if not piece[layout.to_pixel(*position)]:
+            flat = int(np.argmin(np.where(piece, distance, np.inf)))
+            row, col = divmod(flat, piece.shape[1])
+            entry = np.array([xs[col], ys[row]])
+            path.append(_transit(layout, ways, position, entry)[1:])
+            position = entry
+        plan = _plan(layout, piece, position, goals)
+        path.append(plan.waypoints[1:])
+        position = plan.waypoints[-1]
+    waypoints = np.vstack(path)
+    keep = np.concatenate([[True], np.any(np.diff(waypoints, axis=0) != 0, axis=1)])
+    return waypoints[keep]
+
+
 class Boustrophedon(Baseline):
     name = "boustrophedon"
 
@@ -150,16 +720,64 @@ class Boustrophedon(Baseline):
         super().reset(context, observation, info)
         self.legs = plan_layout(context.layout, context.protocol, context.agent, context.n_agents)
         robot = context.layout.robot
-        self.follower = PathFollower(self.legs[0].waypoints, robot.max_speed, robot.max_turn_rate, TIME_STEP)
-        self.leg = 0
+        self.follower = PathFollower(self.legs[0].waypoints if self.legs else np.zeros((1, 2)),
+                                     robot.max_speed, robot.max_turn_rate, TIME_STEP)
+        self.leg, self.leg_started, self.blocked_time = 0, False, 0.0
+        # cells cleared before the episode count as cleared at time 0
+        self.clear_times = [0.0] * context.layout.cleared_cells
+        config = context.env_config
+        lidar = LidarConfig(config.get("n_rays", 64), config.get("lidar_range", 3.5),
+                            config.get("field_of_view", 2 * math.pi))
+        self.ray_angles, self.lidar_range = lidar.ray_angles(), lidar.max_range
 
     def act(self, observation: np.ndarray, info: dict) -> np.ndarray:
-        while self.follower.done and self.leg + 1 < len(self.legs):
-            self.leg += 1
-            self.follower.set_path(self.legs[self.leg].waypoints)
-        if self.follower.done:
+        cleared = info.get("cells_cleared", 0) + self.context.layout.cleared_cells
+        while len(self.clear_times) < cleared:  # when each cell cleared: the departure gates count from it
+            self.clear_times.append(info.get("time", 0.0))
+        while self.leg < len(self.legs):
+            leg = self.legs[self.leg]
+            if not self.leg_started:
+                if not self._may_start(leg, info):
+                    return np.zeros(2)  # waiting for the cell to clear or for its turn
+                self.follower.set_path(leg.waypoints)
+                if len(leg.waypoints) > 1 and np.hypot(*(leg.waypoints[0] - info["pose"][:2])) < ON_WAYPOINT:
+                    self.follower.skip_to(1)  # already there: turning to face it would waste a spin
+                self.leg_started = True
+            if not self.follower.done:
+                break
+            self.leg, self.leg_started = self.leg + 1, False
+        if self.leg >= len(self.legs):
             return np.zeros(2)  # plan finished: wait for the team or the step limit
-        return self.follower.act(info["pose"])
+        action = self.follower.act(info["pose"])
+        if self.context.n_agents > 1 and action[0] > 0 and self._robot_in_front(observation):
+            self.blocked_time += TIME_STEP
+            if self.blocked_time <= BLOCKED_PATIENCE:
+                return np.array([0.0, action[1]])
+        else:
+            self.blocked_time = 0.0
+        return action
+
+    def _may_start(self, leg: Leg, info: dict) -> bool:
+        if leg.after_cell is None:
+            since = 0.0
+        elif leg.after_cell < len(self.clear_times):
+            since = self.clear_times[leg.after_cell]
+        else:
+            return False
+        return info.get("time", 0.0) >= since + leg.delay - 1e-9
+
+    def _robot_in_front(self, observation: np.ndarray) -> bool:
+        """True when the lidar sees another robot in the strip the robot is about to drive into."""
+        rays = len(self.ray_angles)
+        scan = np.asarray(observation[: 6 * rays]).reshape(rays, 6)
+        robot_hits = scan[:, 5] > 0.5
+        if not robot_hits.any():
+            return False
+        distance = scan[robot_hits, 0] * self.lidar_range
+        angle = self.ray_angles[robot_hits]
+        ahead, aside = distance * np.cos(angle), distance * np.sin(angle)
+        radius = self.context.layout.robot.radius
+        return bool(np.any((ahead > 0) & (ahead < radius + FOLLOW_GAP) & (np.abs(aside) < radius * 1.05)))
 
 
 def record_demonstrations(layout: str, episodes: int, path: str, seed: int = 0, **env_kwargs) -> dict:

@@ -57,7 +57,7 @@ class PathFollower:
         align_tolerance: float = 0.15,
         goal_tolerance: float = 0.03,
         progress_tolerance: float = 0.002,
-        deceleration: float = 2.0,
+        deceleration: float = 1.0,
         heading_gain: float | None = None,
     ):
         self.max_speed = max_speed
