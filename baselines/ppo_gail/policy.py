@@ -120,13 +120,19 @@ def export_policy(runner, path: str | os.PathLike, *, ablation: str, observation
     }
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_torch_save(exported, path)
+    return path
+
+
+def atomic_torch_save(obj, path: Path) -> None:
+    """Write ``obj`` to ``path`` via a temporary file and ``os.replace``: a reader (or an interruption) never sees a
+    half-written file."""
     temporary = path.with_name(path.name + ".tmp")
     try:
-        torch.save(exported, temporary)
+        torch.save(obj, temporary)
         os.replace(temporary, path)
     finally:
         temporary.unlink(missing_ok=True)
-    return path
 
 
 def _action_std(model) -> torch.Tensor:

@@ -50,6 +50,7 @@ import numpy as np
 import torch
 
 from baselines.ppo_gail.algorithm import ABLATIONS, make_train_cfg
+from baselines.ppo_gail.policy import atomic_torch_save
 
 # ---------------------------------------------------------------------------------------------------------------------
 # 1. Configuration
@@ -279,17 +280,6 @@ def read_metrics(path: str | os.PathLike) -> list[dict]:
 # ---------------------------------------------------------------------------------------------------------------------
 # 3. Checkpoints
 # ---------------------------------------------------------------------------------------------------------------------
-
-
-def atomic_torch_save(obj, path: Path) -> None:
-    """Write ``obj`` to ``path`` via a temporary file and ``os.replace``: a reader (or an interruption) never sees a
-    half-written file."""
-    temporary = path.with_name(path.name + ".tmp")
-    try:
-        torch.save(obj, temporary)
-        os.replace(temporary, path)
-    finally:
-        temporary.unlink(missing_ok=True)
 
 
 def checkpoint_path(run_dir: Path, iteration: int) -> Path:
