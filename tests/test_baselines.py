@@ -69,3 +69,13 @@ def test_demonstrations_are_recorded_in_the_documented_schema(tmp_path):
     observations, actions = load_demonstrations([str(path)], observation_dim=386, action_dim=2)
     assert observations.shape[0] == actions.shape[0] == summary["steps"]
     assert np.abs(actions.numpy()).max() <= 1.0
+
+
+def test_a_team_of_two_covers_faster_than_one_robot():
+    from cabinbench.episodes import run_episode as run_team_episode
+
+    alone, _ = run_team_episode("boustrophedon", "b777_3col", 0, "sequential", 1, {}, {})
+    team, _ = run_team_episode("boustrophedon", "b777_3col", 0, "sequential", 2, {}, {})
+    assert team["success"] and team["coverage"] >= 0.98 and team["n_agents"] == 2
+    assert team["makespan"] < 0.85 * alone["time"]
+    assert team["robot_collisions"] <= 4 and team["load_balance"] < 1.5
