@@ -131,15 +131,6 @@ def success_rate(policy, num_envs: int = 256, seed: int = 999) -> float:
     return succeeded.float().mean().item()
 
 
-@pytest.fixture(autouse=True)
-def single_torch_thread():
-    """The networks are tiny: one thread is as fast, and does not collapse when other processes share the CPU."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
-
-
 @pytest.fixture(scope="module")
 def demonstrations(tmp_path_factory) -> str:
     path = tmp_path_factory.mktemp("demos") / "point_mass_expert.npz"

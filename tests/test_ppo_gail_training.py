@@ -26,14 +26,6 @@ from cabinbench.layout import load_layout
 SHIPPED = ("ppo_gail", "ppo", "ppo_icm", "ppo_gail_only")
 
 
-@pytest.fixture(autouse=True)
-def single_torch_thread():
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
-
-
 def tiny_config(**overrides) -> training.TrainConfig:
     settings = dict(ablation="ppo_gail", layouts=["a320_cell"], num_envs=8, num_steps_per_env=16, iterations=3,
                     max_steps=30, demo_episodes=2, save_interval=2, threads=1, hidden_dims=[32, 32])
