@@ -1,10 +1,9 @@
 import os
 
+import pytest
+
 os.environ.setdefault("MPLBACKEND", "Agg")
 os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
-
-
-import pytest  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
