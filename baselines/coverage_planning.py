@@ -5,24 +5,32 @@ The planner is a pipeline of small, replaceable steps (in the spirit of Fields2C
 1. ``decompose``: boustrophedon cellular decomposition (Choset, 2000). A slice line (a raster
    row or column) sweeps across the free space; the free intervals of consecutive slices are
    matched, and a cell ends wherever the matching is not one-to-one (an interval splits, two
-   merge, one appears or disappears). Optionally a cell also ends where an interval end jumps
-   by more than ``max_jump`` pixels: such a jump hides a pocket that lanes spaced one tool width
-   apart could step over (the legroom between two seat rows is the typical case).
-2. ``swaths``: the sweep lines of one cell. Ordinary cells get lanes along the slice direction,
-   evenly spaced at most one tool width apart; an end of the cell that faces a wall or obstacle
-   gets a lane on its outermost valid centre positions, an end shared with free neighbouring
-   cells is left to their lanes (no doubled lanes at cell boundaries). Cells narrower than a
-   tool width but long get one pass along each of their two edges instead.
-3. ``cell_sweeps``: the lanes joined boustrophedon style, each connector following the cell
-   boundary so that the boundary strip between lanes is covered; four variants per cell (two
-   start corners, each in both directions).
-4. ``route``: the order of the cells and the variant of each (greedy nearest neighbour from the
-   start, then 2-opt and a dynamic programme over the variants), with geodesic transit costs.
-   Cells in ``last_cells`` are swept after all the others.
-5. ``astar`` and ``shortcut``: 8-connected grid A* for the transits between cells, simplified
-   to few waypoints by line-of-sight shortcuts checked with an exact supercover walk.
+   merge, one appears or disappears). A cell also ends where an interval end jumps by more than
+   ``max_jump`` pixels: such a jump hides a pocket that lanes spaced one tool width apart could
+   step over (the legroom between two seat rows is the typical case). ``transpose_cell`` tells
+   whether a cell's pixels are also one cell of the other axis, i.e. may be swept either way.
+2. ``swaths``: the sweep lines of one cell. Ordinary cells get lanes evenly spaced at most one
+   tool width apart; an end of the cell that faces a wall or obstacle gets a lane on its
+   outermost valid centre positions, an end shared with free neighbouring cells is left to
+   their lanes. Cells narrower than a tool width but long get one pass along each of their two
+   edges, except that a corridor two pixels wide between two cells gets one zigzag pass
+   (``corridor_zigzag``). Lanes of one- or two-lane cells are cut where other cells attach
+   (``attachment_points``), lanes of wider zones into blocks where corridors branch off their
+   side (``lane_blocks``).
+3. ``cell_units``: the route units of each cell and the ways to drive each. The lane direction
+   is chosen per cell: a cell that may be swept either way offers the boustrophedon sweeps of
+   both directions (``cell_sweeps``: four per direction, two start corners, each either way
+   round, connectors along the cell edge), and the route picks one.
+4. ``route``: the order of the units and the variant of each: greedy nearest neighbour from
+   the start, then 2-opt, Or-opt (which fits a side pocket in between two stretches of the
+   corridor it branches off) and a dynamic programme over the variants, with geodesic transit
+   costs. Units of ``last_cells`` come after all the others.
+5. ``join`` and ``drop_idle_corners``: A* transits between the units (8-connected, simplified by
+   line-of-sight shortcuts), then every corner whose shortcut loses no coverage is cut out.
 
-``plan_coverage`` runs the pipeline for both sweep axes and keeps the shorter plan.
+``plan_coverage`` runs the pipeline for both decomposition axes and keeps the shortest plan
+that covers at least ``MIN_PLAN_COVERAGE`` of the coverable area (``SweepOptions`` switches the
+choices of steps 2-3 off, for comparisons).
 
 Conventions: a raster is indexed ``[row, col] = [iy, ix]`` and pixel (iy, ix) has its centre at
 ``origin + ((ix + 0.5) * resolution, (iy + 0.5) * resolution)`` metres. Internally all geometry
@@ -30,7 +38,8 @@ is in pixel coordinates (row, col), where a pixel centre has integer coordinates
 covers [row - 0.5, row + 0.5] x [col - 0.5, col + 0.5]. ``centre_free`` marks the pixels where
 the robot centre may be (free space eroded by the robot radius). Every segment of a plan stays
 inside ``centre_free``: lanes lie on free intervals, connectors on staircases of free pixels,
-and every shortcut is checked against the raster.
+and every zigzag and shortcut is checked against the raster (``segment_is_free``). A pixel
+counts as covered when its centre lies within the tool radius of the path.
 """
 
 from __future__ import annotations
@@ -38,7 +47,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -282,7 +291,7 @@ def astar(centre_free: np.ndarray, start: Sequence[int], goal: Sequence[int]) ->
 
 
 # --------------------------------------------------------------------------------------------
-# 1. Boustrophedon decomposition
+# 1. Decomposition
 # --------------------------------------------------------------------------------------------
 
 
@@ -385,6 +394,24 @@ def decompose(centre_free: np.ndarray, sweep_axis: int, max_jump: int | None = N
     ]
 
 
+def transpose_cell(cell: Cell, max_jump: int | None = None) -> Cell | None:
+    """The cell's pixels as one cell of the other sweep axis, or None when they do not form one.
+
+    The pixels are decomposed along the other axis with the same ``max_jump``. They form a single
+    cell there when every line of the other axis crosses them in one interval and no interval end
+    jumps by more than ``max_jump``: the condition under which lanes across the original lines
+    sweep the cell as completely as lanes along them.
+    """
+    lo, hi = cell.intervals[:, 0], cell.intervals[:, 1]
+    offset = int(lo.min())
+    positions = np.arange(offset, int(hi.max()) + 1)
+    local = (positions >= lo[:, None]) & (positions <= hi[:, None])  # [line, position]
+    parts = decompose(local.T, sweep_axis=0, max_jump=max_jump)
+    if len(parts) != 1:
+        return None
+    return Cell(1 - cell.sweep_axis, offset + parts[0].first_line, parts[0].intervals + cell.first_line)
+
+
 # --------------------------------------------------------------------------------------------
 # 2. Swaths
 # --------------------------------------------------------------------------------------------
@@ -415,6 +442,15 @@ def faces_obstacle(cell: Cell, lines: np.ndarray, end: int) -> bool:
         return True
     lo, hi = cell.interval(line)
     return not lines[beyond, lo : hi + 1].all()
+
+
+def faces_obstacle_only(cell: Cell, lines: np.ndarray) -> bool:
+    """True if the cell is a dead end: its first or last line has no free pixel beyond it."""
+    for line, beyond in ((cell.first_line, cell.first_line - 1), (cell.last_line, cell.last_line + 1)):
+        lo, hi = cell.interval(line)
+        if not 0 <= beyond < lines.shape[0] or not lines[beyond, lo : hi + 1].any():
+            return True
+    return False
 
 
 def lane_lines(cell: Cell, lines: np.ndarray, tool_width: float, resolution: float) -> np.ndarray:
@@ -475,6 +511,234 @@ def boundary_walk(cell: Cell, side: int, from_line: int, to_line: int) -> np.nda
     return drop_redundant_points(np.array(points))
 
 
+def corridor_zigzag(cell: Cell, lines: np.ndarray) -> np.ndarray | None:
+    """One pass that covers both edges of a corridor two pixels wide, or None for other cells.
+
+    The pass touches the two edges on alternate lines, so every pixel beyond either edge is at
+    most one line from a point where the robot centre is on that edge: about 1.4 times the
+    corridor length instead of the 2 of a pass along each edge. Only for corridors open at both
+    ends (between two other cells): a dead end is driven in and out anyway, and its two edge
+    passes are that in and out.
+    """
+    widths = cell.intervals[:, 1] - cell.intervals[:, 0]
+    if len(widths) < 3 or np.median(widths) > 1 or faces_obstacle_only(cell, lines):
+        return None
+    points = np.array([
+        [line, cell.interval(line)[k % 2]] for k, line in enumerate(range(cell.first_line, cell.last_line + 1))
+    ])
+    if not all(segment_is_free(lines, a, b) for a, b in zip(points[:-1], points[1:])):
+        return None
+    return points
+
+
+def attachment_points(cell: Cell, lines: np.ndarray) -> np.ndarray:
+    """Positions where neighbouring cells attach to the cell across its first or last line.
+
+    One point per free run of the line beyond that touches the cell: the middle of the overlap.
+    A corridor swept by one or two lanes is cut at these points, so that the route may sweep a
+    stretch of it on the way to a side pocket and the next stretch after the pocket.
+    """
+    points = []
+    for line, beyond in ((cell.first_line, cell.first_line - 1), (cell.last_line, cell.last_line + 1)):
+        if not 0 <= beyond < lines.shape[0]:
+            continue
+        lo, hi = cell.interval(line)
+        for run_lo, run_hi in free_intervals(lines[beyond : beyond + 1])[0]:
+            if run_hi >= lo and run_lo <= hi:
+                points.append((max(int(run_lo), lo) + min(int(run_hi), hi)) // 2)
+    return np.unique(np.array(points, dtype=int))
+
+
+def cut_lane(lane: np.ndarray, cuts: np.ndarray) -> list[np.ndarray]:
+    """A straight (line, position) lane cut into consecutive pieces at the given positions."""
+    line, lo, hi = int(lane[0, 0]), int(lane[:, 1].min()), int(lane[:, 1].max())
+    stops = np.concatenate(([lo], cuts[(cuts > lo) & (cuts < hi)], [hi]))
+    if len(stops) == 2 and lo == hi:
+        return [np.array([[line, lo]])]
+    return [np.array([[line, a], [line, b]]) for a, b in zip(stops[:-1], stops[1:])]
+
+
+def lane_blocks(cell: Cell, lanes: list[np.ndarray], centre_free: np.ndarray) -> list[list[np.ndarray]]:
+    """The lanes of a cell in blocks, cut where neighbouring cells attach to the lanes' ends.
+
+    With lanes across the slice lines, the neighbours of the cell touch the ends of some lanes
+    (a corridor branching off the side). Each run of such lanes cuts the block at its middle, so
+    that the route can sweep the lanes on either side of the branch at different times, e.g.
+    half a zone on the way out, the other half on the way back.
+    """
+    lines = line_view(centre_free, cell.sweep_axis)
+    line_numbers = np.arange(cell.first_line, cell.last_line + 1)
+    lo, hi = cell.intervals[:, 0], cell.intervals[:, 1]
+    before = (lo > 0) & lines[line_numbers, np.maximum(lo - 1, 0)]
+    beyond = (hi < lines.shape[1] - 1) & lines[line_numbers, np.minimum(hi + 1, lines.shape[1] - 1)]
+    attached = np.concatenate(([False], before | beyond, [False])).astype(np.int8)
+    starts = np.flatnonzero(np.diff(attached) == 1)
+    stops = np.flatnonzero(np.diff(attached) == -1) - 1
+    cuts = cell.first_line + (starts + stops) // 2
+    lane_lines_ = np.array([int(lane[0, 0]) for lane in lanes])
+    blocks, first = [], 0
+    for cut in cuts:
+        split = int(np.searchsorted(lane_lines_, cut, side="right"))
+        if first < split < len(lanes):
+            blocks.append(lanes[first:split])
+            first = split
+    blocks.append(lanes[first:])
+    return blocks
+
+
+# --------------------------------------------------------------------------------------------
+# 3. Route units: how each cell is swept
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class Sweep:
+    """One unit of the route: a part of a cell swept in one go.
+
+    ``variants`` are the ways to drive it, raster (row, col) polylines; variant k ^ 1 is variant k
+    reversed; ``cell`` is the index of the cell it belongs to.
+    """
+
+    cell: int
+    variants: list[np.ndarray]
+
+
+@dataclass(frozen=True)
+class SweepOptions:
+    """Choices of the pipeline that can be changed, for comparisons and ablations."""
+
+    # The lane direction of the cells that may be swept either way: "route" offers both
+    # directions to the route, "fewest_lanes" takes lanes along the cell's longer extent,
+    # "slice" keeps the lanes along the slice lines (one global direction per plan).
+    lane_direction: str = "route"
+    lane_blocks: bool = True  # zones cut into blocks of lanes where corridors branch off
+    corridor_zigzags: bool = True  # one zigzag pass through corridors two pixels wide
+
+
+def cell_units(
+    cell: Cell,
+    index: int,
+    centre_free: np.ndarray,
+    tool_width: float,
+    resolution: float,
+    max_jump: int | None = None,
+    options: SweepOptions = SweepOptions(),
+) -> list[Sweep]:
+    """The route units of one cell, with the lane direction chosen per cell.
+
+    - A narrow cell: one unit per edge pass, so that the way into a pocket and the way out are
+      routed like any other pass; a corridor two pixels wide between two cells instead gets one
+      zigzag unit (``corridor_zigzag``).
+    - A cell that one or two lanes sweep (in whichever direction needs the fewer): one unit per
+      lane piece, the lanes cut where neighbouring cells attach (``attachment_points``), so that
+      a corridor is swept piecewise on the way to and back from what branches off it.
+    - Any other cell: boustrophedon units whose variants include, when the cell is also one cell
+      of the other axis (``transpose_cell``), the sweeps with lanes across the slice lines, so
+      that the route picks the lane direction of each cell along with the order. Where
+      corridors branch off the side of the lanes, the lanes are cut into blocks
+      (``lane_blocks``), each a unit, in the direction whose sweep is the shorter.
+    """
+    lines = line_view(centre_free, cell.sweep_axis)
+    if is_narrow(cell, tool_width, resolution):
+        edges = swaths(cell, centre_free, tool_width, resolution)
+        zigzag = corridor_zigzag(cell, lines) if options.corridor_zigzags and len(edges) == 2 else None
+        if zigzag is not None:
+            return [Sweep(index, _both_ways(cell, zigzag))]
+        return [Sweep(index, _both_ways(cell, edge, lines)) for edge in edges]
+    if options.lane_direction not in ("route", "fewest_lanes", "slice"):
+        raise ValueError(f"unknown lane_direction {options.lane_direction!r}")
+    orientations = [cell]
+    across = transpose_cell(cell, max_jump) if options.lane_direction != "slice" else None
+    if across is not None and not is_narrow(across, tool_width, resolution):
+        orientations.append(across)
+    directions = [(option, swaths(option, centre_free, tool_width, resolution)) for option in orientations]
+    option, lanes = min(directions, key=lambda direction: len(direction[1]))
+    if options.lane_direction == "fewest_lanes":
+        directions = [(option, lanes)]
+    if len(lanes) <= 2:
+        option_view = line_view(centre_free, option.sweep_axis)
+        cuts = attachment_points(option, option_view)
+        pieces = [piece for lane in lanes for piece in cut_lane(lane, cuts)]
+        return [Sweep(index, _both_ways(option, piece, option_view)) for piece in pieces]
+    directions = [(option, lanes) for option, lanes in directions if len(lanes) > 2]
+    blocks = [
+        lane_blocks(option, lanes, centre_free) if options.lane_blocks else [lanes] for option, lanes in directions
+    ]
+    if all(len(direction_blocks) == 1 for direction_blocks in blocks):
+        variants = [variant for option, lanes in directions for variant in cell_sweeps(option, lanes, centre_free)]
+        return [Sweep(index, variants)]
+    lengths = [polyline_length(cell_sweeps(option, lanes, centre_free)[0]) for option, lanes in directions]
+    best = int(np.argmin(lengths))
+    return [Sweep(index, cell_sweeps(directions[best][0], block, centre_free)) for block in blocks[best]]
+
+
+def cell_sweeps(cell: Cell, lanes: list[np.ndarray], centre_free: np.ndarray) -> list[np.ndarray]:
+    """Four ways to sweep lanes of a cell, as raster (row, col) polylines; variant k ^ 1 is k
+    reversed.
+
+    The lanes in order, alternating direction, starting at the lo (variant 0) or hi (variant 2)
+    end of the first lane; each connector follows the cell edge on the side where the previous
+    lane ended, so that it covers the edge strip between the two lanes.
+    """
+    lines = line_view(centre_free, cell.sweep_axis)
+    sweeps = []
+    for start_side in (0, 1):
+        path = drop_redundant_points(np.vstack(_lanes_boustrophedon(cell, lanes, start_side)))
+        pixels = cell.to_pixels(_simplify_boundary_runs(path, lines))
+        sweeps += [pixels, pixels[::-1]]
+    return sweeps
+
+
+def _lanes_boustrophedon(cell: Cell, lanes: list[np.ndarray], start_side: int) -> list[np.ndarray]:
+    """Lanes joined back and forth, connectors along the cell edge (side 0: lo, 1: hi)."""
+    pieces = []
+    side = start_side
+    for k, lane in enumerate(lanes):
+        line = int(lane[0, 0])
+        if k > 0:
+            previous_line = int(lanes[k - 1][0, 0])
+            pieces.append(boundary_walk(cell, side, previous_line, line))
+        pieces.append(lane if side == 0 else lane[::-1])
+        side = 1 - side
+    return pieces
+
+
+def _both_ways(cell: Cell, path: np.ndarray, lines: np.ndarray | None = None) -> list[np.ndarray]:
+    """A single pass (line, position polyline) as the two variants of a unit: forward, backward.
+
+    With ``lines``, the staircases of the pass are simplified (``_simplify_boundary_runs``).
+    """
+    path = drop_redundant_points(path)
+    if lines is not None:
+        path = _simplify_boundary_runs(path, lines)
+    pixels = cell.to_pixels(path)
+    return [pixels, pixels[::-1]]
+
+
+def _simplify_boundary_runs(path: np.ndarray, lines: np.ndarray) -> np.ndarray:
+    """Simplify a sweep polyline without moving its lanes.
+
+    Only staircase stretches (runs of short segments, as produced by ``boundary_walk`` on sloped
+    edges) are simplified; straight lanes and long connectors are kept exactly, since the outer
+    lanes must stay on the outermost centre positions to reach the edge strip.
+    """
+    segment_lengths = np.abs(np.diff(path, axis=0)).max(axis=1)
+    short = segment_lengths <= 1
+    result = [path[:1]]
+    k = 0
+    while k < len(short):
+        if not short[k]:
+            result.append(path[k + 1 : k + 2])
+            k += 1
+            continue
+        end = k
+        while end < len(short) and short[end]:
+            end += 1
+        result.append(simplify(path[k : end + 1], lines, BOUNDARY_SIMPLIFY_TOLERANCE_PX)[1:])
+        k = end
+    return np.vstack(result)
+
+
 def drop_redundant_points(points: np.ndarray) -> np.ndarray:
     """Remove repeated points and the middle points of straight runs from a polyline."""
     points = points[np.concatenate(([True], np.any(np.diff(points, axis=0) != 0, axis=1)))]
@@ -514,241 +778,6 @@ def simplify(points: np.ndarray, free: np.ndarray, tolerance: float) -> np.ndarr
 
 
 # --------------------------------------------------------------------------------------------
-# 3. Sweeping one cell
-# --------------------------------------------------------------------------------------------
-
-
-def cell_sweeps(
-    cell: Cell, cell_swaths: list[np.ndarray], centre_free: np.ndarray, narrow: bool
-) -> list[np.ndarray]:
-    """Four ways to sweep a cell, as raster (row, col) polylines; variant k ^ 1 is k reversed.
-
-    Ordinary cell: lanes in order, alternating direction, starting at the lo (variant 0) or hi
-    (variant 2) end of the first lane; each connector follows the cell edge on the side where
-    the previous lane ended. Narrow cell: out along the lo edge and back along the hi edge,
-    turning round at the last line (variant 0) or at the first line (variant 2).
-    """
-    lines = line_view(centre_free, cell.sweep_axis)
-    if narrow:
-        lo_edge, hi_edge = cell_swaths[0], cell_swaths[-1]
-        if len(cell_swaths) == 1:  # a single-pixel-wide cell: one pass, in either direction
-            bases = [[lo_edge], [lo_edge[::-1]]]
-        else:
-            bases = [[lo_edge, hi_edge[::-1]], [lo_edge[::-1], hi_edge]]
-    else:
-        bases = [_lanes_boustrophedon(cell, cell_swaths, start_side) for start_side in (0, 1)]
-    sweeps = []
-    for pieces in bases:
-        path = drop_redundant_points(np.vstack(pieces))
-        path = _simplify_boundary_runs(path, lines)
-        pixels = cell.to_pixels(path)
-        sweeps += [pixels, pixels[::-1]]
-    return sweeps
-
-
-def _lanes_boustrophedon(cell: Cell, lanes: list[np.ndarray], start_side: int) -> list[np.ndarray]:
-    """Lanes joined back and forth, connectors along the cell edge (side 0: lo, 1: hi)."""
-    pieces = []
-    side = start_side
-    for k, lane in enumerate(lanes):
-        line = int(lane[0, 0])
-        if k > 0:
-            previous_line = int(lanes[k - 1][0, 0])
-            pieces.append(boundary_walk(cell, side, previous_line, line))
-        pieces.append(lane if side == 0 else lane[::-1])
-        side = 1 - side
-    return pieces
-
-
-def _simplify_boundary_runs(path: np.ndarray, lines: np.ndarray) -> np.ndarray:
-    """Simplify a sweep polyline without moving its lanes.
-
-    Only staircase stretches (runs of short segments, as produced by ``boundary_walk`` on sloped
-    edges) are simplified; straight lanes and long connectors are kept exactly, since the outer
-    lanes must stay on the outermost centre positions to reach the edge strip.
-    """
-    segment_lengths = np.abs(np.diff(path, axis=0)).max(axis=1)
-    short = segment_lengths <= 1
-    result = [path[:1]]
-    k = 0
-    while k < len(short):
-        if not short[k]:
-            result.append(path[k + 1 : k + 2])
-            k += 1
-            continue
-        end = k
-        while end < len(short) and short[end]:
-            end += 1
-        result.append(simplify(path[k : end + 1], lines, BOUNDARY_SIMPLIFY_TOLERANCE_PX)[1:])
-        k = end
-    return np.vstack(result)
-
-
-def transpose_cell(cell: Cell, max_jump: int | None = None) -> Cell | None:
-    """The cell's pixels as one cell of the other sweep axis, or None when they do not form one.
-
-    The pixels are decomposed along the other axis with the same ``max_jump``. They form a single
-    cell there when every line of the other axis crosses them in one interval and no interval end
-    jumps by more than ``max_jump``: the condition under which lanes across the original lines
-    sweep the cell as completely as lanes along them.
-    """
-    lo, hi = cell.intervals[:, 0], cell.intervals[:, 1]
-    offset = int(lo.min())
-    positions = np.arange(offset, int(hi.max()) + 1)
-    local = (positions >= lo[:, None]) & (positions <= hi[:, None])  # [line, position]
-    parts = decompose(local.T, sweep_axis=0, max_jump=max_jump)
-    if len(parts) != 1:
-        return None
-    return Cell(1 - cell.sweep_axis, offset + parts[0].first_line, parts[0].intervals + cell.first_line)
-
-
-def attachment_points(cell: Cell, lines: np.ndarray) -> np.ndarray:
-    """Positions where neighbouring cells attach to the cell across its first or last line.
-
-    One point per free run of the line beyond that touches the cell: the middle of the overlap.
-    A corridor swept by one or two lanes is cut at these points, so that the route may sweep a
-    stretch of it on the way to a side pocket and the next stretch after the pocket.
-    """
-    points = []
-    for line, beyond in ((cell.first_line, cell.first_line - 1), (cell.last_line, cell.last_line + 1)):
-        if not 0 <= beyond < lines.shape[0]:
-            continue
-        lo, hi = cell.interval(line)
-        for run_lo, run_hi in free_intervals(lines[beyond : beyond + 1])[0]:
-            if run_hi >= lo and run_lo <= hi:
-                points.append((max(int(run_lo), lo) + min(int(run_hi), hi)) // 2)
-    return np.unique(np.array(points, dtype=int))
-
-
-def cut_lane(lane: np.ndarray, cuts: np.ndarray) -> list[np.ndarray]:
-    """A straight (line, position) lane cut into consecutive pieces at the given positions."""
-    line, lo, hi = int(lane[0, 0]), int(lane[:, 1].min()), int(lane[:, 1].max())
-    stops = np.concatenate(([lo], cuts[(cuts > lo) & (cuts < hi)], [hi]))
-    if len(stops) == 2 and lo == hi:
-        return [np.array([[line, lo]])]
-    return [np.array([[line, a], [line, b]]) for a, b in zip(stops[:-1], stops[1:])]
-
-
-@dataclass
-class Sweep:
-    """One unit of the route: a part of a cell swept in one go.
-
-    ``variants`` are the ways to drive it, raster (row, col) polylines; variant k ^ 1 is variant k
-    reversed; ``cell`` is the index of the cell it belongs to.
-    """
-
-    cell: int
-    variants: list[np.ndarray]
-
-
-def cell_units(
-    cell: Cell, index: int, centre_free: np.ndarray, tool_width: float, resolution: float,
-    max_jump: int | None = None, cut_blocks: bool = True,
-) -> list[Sweep]:
-    """The route units of one cell, with the lane direction chosen per cell.
-
-    - A narrow cell: one unit per edge pass, so that the way in and the way out of a pocket are
-      routed like any other pass.
-    - A cell that one or two lanes sweep (in whichever direction needs the fewer): one unit per
-      lane piece, the lanes cut where neighbouring cells attach (``attachment_points``), so a
-      corridor is swept piecewise on the way to and back from what branches off it.
-    - Any other cell: a single boustrophedon unit whose variants include, when the cell is also
-      one cell of the other axis (``transpose_cell``), the sweeps with lanes across the slice
-      lines; the route picks the direction along with the order.
-    """
-    lines = line_view(centre_free, cell.sweep_axis)
-    if is_narrow(cell, tool_width, resolution):
-        edges = swaths(cell, centre_free, tool_width, resolution)
-        zigzag = corridor_zigzag(cell, lines) if len(edges) == 2 else None
-        if zigzag is not None:
-            return [Sweep(index, _both_ways(cell, zigzag, lines))]
-        return [Sweep(index, _both_ways(cell, edge, lines)) for edge in edges]
-    options = [cell]
-    across = transpose_cell(cell, max_jump)
-    if across is not None and not is_narrow(across, tool_width, resolution):
-        options.append(across)
-    option_lanes = [swaths(option, centre_free, tool_width, resolution) for option in options]
-    fewest = min(range(len(options)), key=lambda k: len(option_lanes[k]))
-    if len(option_lanes[fewest]) <= 2:
-        option = options[fewest]
-        option_view = line_view(centre_free, option.sweep_axis)
-        cuts = attachment_points(option, option_view)
-        return [
-            Sweep(index, _both_ways(option, piece, option_view))
-            for lane in option_lanes[fewest]
-            for piece in cut_lane(lane, cuts)
-        ]
-    multi_lane = [(option, lanes) for option, lanes in zip(options, option_lanes) if len(lanes) > 2]
-    blocks = [lane_blocks(option, lanes, centre_free) if cut_blocks else [lanes] for option, lanes in multi_lane]
-    if all(len(option_blocks) == 1 for option_blocks in blocks):
-        variants = [
-            variant for option, lanes in multi_lane for variant in cell_sweeps(option, lanes, centre_free, narrow=False)
-        ]
-        return [Sweep(index, variants)]
-    # Some direction has neighbours attached to the side of its lanes: sweep the cell in blocks
-    # of lanes, in the direction whose lanes are the shorter to drive.
-    best = min(
-        range(len(multi_lane)),
-        key=lambda k: polyline_length(cell_sweeps(multi_lane[k][0], multi_lane[k][1], centre_free, narrow=False)[0]),
-    )
-    option = multi_lane[best][0]
-    return [Sweep(index, cell_sweeps(option, block, centre_free, narrow=False)) for block in blocks[best]]
-
-
-def lane_blocks(cell: Cell, lanes: list[np.ndarray], centre_free: np.ndarray) -> list[list[np.ndarray]]:
-    """The lanes of a cell in blocks, cut where neighbouring cells attach to the lanes' ends.
-
-    With lanes across the slice lines, the neighbours of the cell touch the ends of some lanes
-    (a corridor branching off the side). Each run of such lanes cuts the block at its middle, so
-    that the route can sweep the lanes on either side of the branch at different times, e.g.
-    half a zone on the way out, the other half on the way back.
-    """
-    lines = line_view(centre_free, cell.sweep_axis)
-    line_numbers = np.arange(cell.first_line, cell.last_line + 1)
-    lo, hi = cell.intervals[:, 0], cell.intervals[:, 1]
-    before = (lo > 0) & lines[line_numbers, np.maximum(lo - 1, 0)]
-    beyond = (hi < lines.shape[1] - 1) & lines[line_numbers, np.minimum(hi + 1, lines.shape[1] - 1)]
-    attached = np.concatenate(([False], before | beyond, [False])).astype(np.int8)
-    starts = np.flatnonzero(np.diff(attached) == 1)
-    stops = np.flatnonzero(np.diff(attached) == -1) - 1
-    cuts = cell.first_line + (starts + stops) // 2
-    lane_lines_ = np.array([int(lane[0, 0]) for lane in lanes])
-    blocks, first = [], 0
-    for cut in cuts:
-        split = int(np.searchsorted(lane_lines_, cut, side="right"))
-        if first < split < len(lanes):
-            blocks.append(lanes[first:split])
-            first = split
-    blocks.append(lanes[first:])
-    return blocks
-
-
-def corridor_zigzag(cell: Cell, lines: np.ndarray) -> np.ndarray | None:
-    """One pass that covers both edges of a corridor two pixels wide, or None for other cells.
-
-    The pass touches the two edges on alternate lines, so every pixel beyond either edge is at
-    most one line from a point where the robot centre is on that edge: about 1.4 times the
-    corridor length instead of the 2 of a pass along each edge.
-    """
-    widths = cell.intervals[:, 1] - cell.intervals[:, 0]
-    if len(widths) < 3 or np.median(widths) > 1:
-        return None
-    points = np.array([
-        [line, cell.interval(line)[k % 2]] for k, line in enumerate(range(cell.first_line, cell.last_line + 1))
-    ])
-    if not all(segment_is_free(lines, a, b) for a, b in zip(points[:-1], points[1:])):
-        return None
-    return points
-
-
-def _both_ways(cell: Cell, path: np.ndarray, lines: np.ndarray) -> list[np.ndarray]:
-    """A single pass (line, position polyline) as the two variants of a unit: forward, backward."""
-    path = _simplify_boundary_runs(drop_redundant_points(path), lines)
-    pixels = cell.to_pixels(path)
-    return [pixels, pixels[::-1]]
-
-
-# --------------------------------------------------------------------------------------------
 # 4. Routing
 # --------------------------------------------------------------------------------------------
 
@@ -757,15 +786,13 @@ def route(
     sweeps: list[list[np.ndarray]],
     start: Sequence[int],
     pairwise_distance: Callable[[np.ndarray], np.ndarray],
-    last_cells: set[int] | frozenset[int] = frozenset(),
-    finish: Sequence[int] | None = None,
+    last_units: set[int] | frozenset[int] = frozenset(),
 ) -> list[tuple[int, int]]:
     """Order the units and choose how to sweep each: a list of (unit index, variant index).
 
     ``sweeps[i]`` lists the variants of unit i (polylines in pixels; variant k ^ 1 must be
     variant k reversed). ``pairwise_distance(points)`` returns the transit cost matrix between
-    pixel points. Units in ``last_cells`` come after all the others. With a ``finish`` pixel the
-    route is charged the transit from its end to there (where the robot must go next).
+    pixel points. Units in ``last_units`` come after all the others.
 
     The objective is transits plus in-unit lengths. Greedy nearest neighbour builds a first
     route; then 2-opt (reversing a stretch of the route reverses each of its units, which is
@@ -773,29 +800,23 @@ def route(
     programme that picks the best variant of every unit for the fixed order alternate until none
     improves.
     """
-    entries = np.array([[variant[0] for variant in cell] for cell in sweeps])  # (cells, variants, 2)
-    cell_count, variant_count = entries.shape[:2]
-    if cell_count == 0:
+    entries = np.array([[variant[0] for variant in unit] for unit in sweeps])  # (units, variants, 2)
+    unit_count, variant_count = entries.shape[:2]
+    if unit_count == 0:
         return []
-    in_cell_length = np.array([[polyline_length(variant) for variant in cell] for cell in sweeps])
+    in_unit_length = np.array([[polyline_length(variant) for variant in unit] for unit in sweeps])
     # Exits are the entries of the reversed variants, so one set of points serves for both.
-    ends = [start] if finish is None else [start, finish]
-    points = np.vstack((np.asarray(ends), entries.reshape(-1, 2)))
+    points = np.vstack((np.asarray(start)[None, :], entries.reshape(-1, 2)))
     distances = pairwise_distance(points)
-    first = len(ends)
-    start_to = distances[0, first:].reshape(cell_count, variant_count)
-    between = distances[first:, first:].reshape(cell_count, variant_count, cell_count, variant_count)
+    start_to = distances[0, 1:].reshape(unit_count, variant_count)
+    between = distances[1:, 1:].reshape(unit_count, variant_count, unit_count, variant_count)
     # transit[a, v, b, w]: from the exit of unit a swept by variant v to the entry of b by w.
     transit = between[:, np.arange(variant_count) ^ 1]
-    # to_finish[a, v]: from the exit of unit a swept by variant v to the finish (0 without one).
-    to_finish = np.zeros((cell_count, variant_count))
-    if finish is not None:
-        to_finish = distances[1, first:].reshape(cell_count, variant_count)[:, np.arange(variant_count) ^ 1]
-    costs = RouteCosts(start_to, transit, to_finish, in_cell_length)
+    costs = RouteCosts(start_to, transit, in_unit_length)
 
     groups = [
-        [index for index in range(cell_count) if index not in last_cells],
-        sorted(set(last_cells) & set(range(cell_count))),
+        [index for index in range(unit_count) if index not in last_units],
+        sorted(set(last_units) & set(range(unit_count))),
     ]
     tour = _greedy(groups, costs)
     group_end = len(groups[0])
@@ -816,18 +837,18 @@ class RouteCosts:
 
     start_to: np.ndarray  # [unit, variant]: from the start to the entry
     transit: np.ndarray  # [unit, variant, unit, variant]: from an exit to an entry
-    to_finish: np.ndarray  # [unit, variant]: from the exit to the finish
     in_unit: np.ndarray  # [unit, variant]: the sweep itself
 
     def link(self, a: tuple[int, int] | None, b: tuple[int, int] | None) -> float:
-        """Transit from step a (None: the start) to step b (None: the finish)."""
+        """Transit from step a (None: the start) to step b (None: the end of the route, free)."""
         if b is None:
-            return 0.0 if a is None else self.to_finish[a]
+            return 0.0
         return self.start_to[b] if a is None else self.transit[a + b]
 
     def tour(self, tour: list[tuple[int, int]]) -> float:
         steps = [None, *tour, None]
-        return float(sum(self.in_unit[step] for step in tour) + sum(self.link(a, b) for a, b in zip(steps[:-1], steps[1:])))
+        transits = sum(self.link(a, b) for a, b in zip(steps[:-1], steps[1:]))
+        return float(sum(self.in_unit[step] for step in tour) + transits)
 
 
 def _greedy(groups, costs: RouteCosts) -> list[tuple[int, int]]:
@@ -904,24 +925,22 @@ def _best_insertion(tour, i, length, group_end, in_first_group, costs: RouteCost
     removal = costs.link(before, stretch[0]) + costs.link(stretch[-1], after) - costs.link(before, after)
     rest_end = group_end - length if in_first_group else group_end
     gaps = np.arange(0, rest_end + 1) if in_first_group else np.arange(rest_end, len(rest) + 1)
-    # Gap g lies between rest[g - 1] (or the start) and rest[g] (or the finish).
+    # Gap g lies between rest[g - 1] (or the start) and rest[g] (or the end of the route).
     cells = np.array([cell for cell, _ in rest] + [0], dtype=int)
     variants = np.array([variant for _, variant in rest] + [0], dtype=int)
     has_previous, has_next = gaps > 0, gaps < len(rest)
     previous, following = np.maximum(gaps - 1, 0), gaps
-    p_cell, p_variant, f_cell, f_variant = cells[previous], variants[previous], cells[following], variants[following]
+    p_cell, p_variant = cells[previous], variants[previous]
+    f_cell, f_variant = cells[following], variants[following]
 
     def links_into(cell, variant):  # from the unit before each gap (or the start) to (cell, variant)
-        return np.where(has_previous, costs.transit[p_cell, p_variant, cell, variant], costs.start_to[cell, variant])
+        from_start = costs.start_to[cell, variant]
+        return np.where(has_previous, costs.transit[p_cell, p_variant, cell, variant], from_start)
 
-    def links_out_of(cell, variant):  # from (cell, variant) to the unit after each gap (or the finish)
-        return np.where(has_next, costs.transit[cell, variant, f_cell, f_variant], costs.to_finish[cell, variant])
+    def links_out_of(cell, variant):  # from (cell, variant) to the unit after each gap (if any)
+        return np.where(has_next, costs.transit[cell, variant, f_cell, f_variant], 0.0)
 
-    replaced = np.where(
-        has_next,
-        links_into(f_cell, f_variant),
-        np.where(has_previous, costs.to_finish[p_cell, p_variant], 0.0),
-    )
+    replaced = np.where(has_next, links_into(f_cell, f_variant), 0.0)
     best_gain, best = 1e-9, None
     for candidate in (stretch, [(cell, variant ^ 1) for cell, variant in reversed(stretch)]):
         gain = removal - (links_into(*candidate[0]) + links_out_of(*candidate[-1]) - replaced)
@@ -939,28 +958,25 @@ def _best_variants(order, costs: RouteCosts) -> list[tuple[int, int]]:
         candidates = cost[:, None] + costs.transit[previous, :, cell, :]
         choices.append(np.argmin(candidates, axis=0))
         cost = candidates.min(axis=0) + costs.in_unit[cell]
-    variants = [int(np.argmin(cost + costs.to_finish[order[-1]]))]
+    variants = [int(np.argmin(cost))]
     for choice in reversed(choices):
         variants.append(int(choice[variants[-1]]))
     return list(zip(order, reversed(variants)))
 
 
 # --------------------------------------------------------------------------------------------
-# 5. Shortcuts that lose no coverage
+# 5. Path: transits, and shortcuts that lose no coverage
 # --------------------------------------------------------------------------------------------
 
 
-def segment_footprint(start: np.ndarray, end: np.ndarray, radius_px: float, shape: tuple[int, int]) -> np.ndarray:
-    """Flat indices of the pixels whose centre lies within ``radius_px`` of the segment."""
-    start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
-    low = np.maximum(np.floor(np.minimum(start, end) - radius_px), 0).astype(int)
-    high = np.minimum(np.ceil(np.maximum(start, end) + radius_px), np.array(shape) - 1).astype(int)
-    rows, cols = np.mgrid[low[0] : high[0] + 1, low[1] : high[1] + 1]
-    delta = end - start
-    length2 = float(delta @ delta)
-    t = 0.0 if length2 == 0 else np.clip(((rows - start[0]) * delta[0] + (cols - start[1]) * delta[1]) / length2, 0, 1)
-    inside = (rows - start[0] - t * delta[0]) ** 2 + (cols - start[1] - t * delta[1]) ** 2 <= radius_px**2 + 1e-9
-    return (rows[inside] * shape[1] + cols[inside]).ravel()
+def join(free_space: FreeSpace, start_pixel: tuple[int, int], sweeps: list[np.ndarray]) -> np.ndarray:
+    """The sweeps in route order, joined by A* transits, as one (row, col) polyline."""
+    pieces = [np.array([start_pixel])]
+    position = start_pixel
+    for sweep in sweeps:
+        pieces += [free_space.transit(position, tuple(sweep[0])), sweep]
+        position = tuple(sweep[-1])
+    return drop_redundant_points(np.vstack(pieces))
 
 
 def drop_idle_corners(
@@ -988,13 +1004,14 @@ def drop_idle_corners(
     def try_cut(first: int, count: int) -> bool:
         """Replace corners first .. first + count - 1 by one segment if that loses nothing."""
         before, after = points[first - 1], points[first + count]
-        detour = sum(np.hypot(*(q - p)) for p, q in zip(points[first - 1 : first + count], points[first : first + count + 1]))
+        detour = polyline_length(np.array(points[first - 1 : first + count + 1]))
         if detour - np.hypot(*(after - before)) <= 1e-6 or not segment_is_free(free, before, after):
             return False
         replaced = footprints[first - 1 : first + count]
         pixels, times = np.unique(np.concatenate(replaced), return_counts=True)
-        lost = pixels[counts[pixels] == times]
-        if not np.isin(lost, segment_footprint(before, after, radius_px - margin_px, shape), assume_unique=True).all():
+        lost_rows, lost_cols = np.divmod(pixels[counts[pixels] == times], shape[1])
+        distances = distance_to_segment(np.column_stack((lost_rows, lost_cols)), before, after)
+        if np.any(distances > radius_px - margin_px + 1e-9):
             return False
         shortcut = segment_footprint(before, after, radius_px, shape)
         for footprint in replaced:
@@ -1017,8 +1034,43 @@ def drop_idle_corners(
     return np.array(points)
 
 
+def distance_to_segment(points: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """Distance from each (row, col) point to the segment start-end."""
+    offsets = np.asarray(points, dtype=float) - start
+    delta = end - start
+    length2 = float(delta @ delta)
+    t = np.zeros(len(offsets)) if length2 == 0 else np.clip(offsets @ delta / length2, 0.0, 1.0)
+    return np.hypot(*(offsets - t[:, None] * delta).T)
+
+
+def segment_footprint(
+    start: np.ndarray, end: np.ndarray, radius_px: float, shape: tuple[int, int]
+) -> np.ndarray:
+    """Flat indices of the pixels whose centre lies within ``radius_px`` of the segment."""
+    start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+    low = np.maximum(np.floor(np.minimum(start, end) - radius_px), 0).astype(int)
+    high = np.minimum(np.ceil(np.maximum(start, end) + radius_px), np.array(shape) - 1).astype(int)
+    rows = np.arange(low[0], high[0] + 1, dtype=float)[:, None] - start[0]
+    cols = np.arange(low[1], high[1] + 1, dtype=float)[None, :] - start[1]
+    delta = end - start
+    length2 = float(delta @ delta)
+    t = 0.0 if length2 == 0 else np.clip((rows * delta[0] + cols * delta[1]) / length2, 0.0, 1.0)
+    inside = (rows - t * delta[0]) ** 2 + (cols - t * delta[1]) ** 2 <= radius_px**2 + 1e-9
+    hit_rows, hit_cols = np.nonzero(inside)
+    return (hit_rows + low[0]) * shape[1] + hit_cols + low[1]
+
+
+def path_coverage(pixel_path: np.ndarray, coverable: np.ndarray, radius_px: float) -> float:
+    """Fraction of the ``coverable`` pixels within ``radius_px`` of a (row, col) polyline."""
+    covered = np.zeros(coverable.size, dtype=bool)
+    points = np.asarray(pixel_path, dtype=float)
+    for a, b in zip(points[:-1], points[1:]) if len(points) > 1 else [(points[0], points[0])]:
+        covered[segment_footprint(a, b, radius_px, coverable.shape)] = True
+    return float((covered & coverable.ravel()).sum() / max(int(coverable.sum()), 1))
+
+
 # --------------------------------------------------------------------------------------------
-# 5. The whole plan
+# 6. The whole plan
 # --------------------------------------------------------------------------------------------
 
 
@@ -1052,19 +1104,21 @@ def plan_coverage(
     max_speed: float = 0.5,
     max_turn_rate: float = 2.0,
     min_coverage: float = MIN_PLAN_COVERAGE,
-    finish: Sequence[float] | None = None,
+    options: SweepOptions = SweepOptions(),
 ) -> Plan:
     """Plan a path whose tool disc covers all the area reachable from ``start``.
 
     ``last_cells`` is a predicate on cells; the cells it selects are swept after all the others
     (e.g. the cells holding goal markers: ``lambda cell: cell.contains(*world_to_pixel(marker,
-    resolution, origin))``). ``sweep_axis`` None tries both decomposition axes. Of the candidate
-    plans, the shortest one that covers at least ``min_coverage`` of the coverable area is kept
-    (the one that covers the most if none does). Cutting zones into blocks of lanes
-    (``lane_blocks``) shortens routes but leaves the wall strip of the cut uncovered, so plans
-    without the cuts are candidates too when the cut plans fall short. ``max_speed`` (m/s) and
-    ``max_turn_rate`` (rad/s) only serve the ``duration`` estimate. ``finish`` (x, y) is where
-    the robot goes after the plan (e.g. a goal held back): the route is chosen to end near it.
+    resolution, origin))``).
+
+    ``sweep_axis`` None tries both decomposition axes. Of the candidate plans the shortest one
+    that covers at least ``min_coverage`` of the coverable area is kept, or the one covering the
+    most if none does. The shortest sweeps are not always the most complete: the round ends of
+    short lanes leave scallops along walls, and blocks of lanes leave the wall strip at each cut
+    to them. So when no plan covers enough, plans without blocks, then with lanes along each
+    cell's longer extent, are tried too. ``max_speed`` (m/s) and ``max_turn_rate`` (rad/s) only
+    serve the ``duration`` estimate.
     The plan is restricted to the pixels 4-connected to the start (snapped to the nearest free
     pixel when it is not on one).
     """
@@ -1075,17 +1129,18 @@ def plan_coverage(
     labels, _ = ndimage.label(centre_free)
     reachable = labels == labels[start_pixel]
     free_space = FreeSpace(reachable, search_radius_px=ROUTING_SEARCH_RADIUS_M / resolution)
-    finish_pixel = None
-    if finish is not None:
-        finish_pixel = _nearest_free_pixel(reachable, world_to_pixel(finish, resolution, origin))
     radius_px = tool_width / 2 / resolution
     coverable = ndimage.distance_transform_edt(~reachable) <= radius_px + 1e-9
     axes = (0, 1) if sweep_axis is None else (sweep_axis,)
+    # Fallbacks when no plan covers enough: no blocks, then lanes along each cell's longer extent
+    # (fewer lane ends, so fewer of the scallops that round lane ends leave along walls).
+    no_blocks = replace(options, lane_blocks=False)
+    attempts = list(dict.fromkeys([options, no_blocks, replace(no_blocks, lane_direction="fewest_lanes")]))
     plans = []
-    for cut_blocks in (True, False):
+    for attempt in attempts:
         for axis in axes:
             cells, cell_order, pixel_path = _plan_for_axis(
-                free_space, axis, resolution, tool_width, start_pixel, last_cells, cut_blocks, finish_pixel
+                free_space, axis, resolution, tool_width, start_pixel, last_cells, attempt
             )
             waypoints = np.vstack(
                 (np.asarray(start, dtype=float)[None, :], pixels_to_world(pixel_path, resolution, origin))
@@ -1104,13 +1159,24 @@ def plan_coverage(
     return max(plans, key=lambda plan: plan.coverage)
 
 
-def path_coverage(pixel_path: np.ndarray, coverable: np.ndarray, radius_px: float) -> float:
-    """Fraction of the ``coverable`` pixels within ``radius_px`` of a (row, col) polyline."""
-    covered = np.zeros(coverable.size, dtype=bool)
-    points = np.asarray(pixel_path, dtype=float)
-    for a, b in zip(points[:-1], points[1:]) if len(points) > 1 else [(points[0], points[0])]:
-        covered[segment_footprint(a, b, radius_px, coverable.shape)] = True
-    return float((covered & coverable.ravel()).sum() / max(int(coverable.sum()), 1))
+def _plan_for_axis(free_space, sweep_axis, resolution, tool_width, start_pixel, last_cells, options):
+    """Decompose, sweep, route and join for one axis: the cells, the cell order, the pixel path."""
+    max_jump = max_lane_spacing_px(tool_width, resolution) // 2
+    cells = decompose(free_space.free, sweep_axis, max_jump=max_jump)
+    units = [
+        unit
+        for index, cell in enumerate(cells)
+        for unit in cell_units(cell, index, free_space.free, tool_width, resolution, max_jump, options)
+    ]
+    variant_count = max(len(unit.variants) for unit in units)
+    # Pairs (k, k ^ 1) repeat, so padding every unit to the same variant count keeps the pairing.
+    variants = [[unit.variants[k % len(unit.variants)] for k in range(variant_count)] for unit in units]
+    chosen_last = {k for k, unit in enumerate(units) if last_cells is not None and last_cells(cells[unit.cell])}
+    tour = route(variants, start_pixel, free_space.pairwise_distances, chosen_last)
+    path = join(free_space, start_pixel, [variants[unit][variant] for unit, variant in tour])
+    path = drop_idle_corners(path, free_space.free, tool_width / 2 / resolution, SHORTCUT_MARGIN_M / resolution)
+    cell_order = list(dict.fromkeys(units[unit].cell for unit, _ in tour))
+    return cells, cell_order, path
 
 
 def _nearest_free_pixel(centre_free: np.ndarray, pixel: tuple[int, int]) -> tuple[int, int]:
@@ -1121,31 +1187,3 @@ def _nearest_free_pixel(centre_free: np.ndarray, pixel: tuple[int, int]) -> tupl
         return row, col
     _, (nearest_rows, nearest_cols) = ndimage.distance_transform_edt(~centre_free, return_indices=True)
     return int(nearest_rows[row, col]), int(nearest_cols[row, col])
-
-
-def _plan_for_axis(
-    free_space, sweep_axis, resolution, tool_width, start_pixel, last_cells, cut_blocks=True, finish_pixel=None
-):
-    """Decompose, sweep, route and join for one axis: the cells, the route and the pixel path."""
-    max_jump = max_lane_spacing_px(tool_width, resolution) // 2
-    cells = decompose(free_space.free, sweep_axis, max_jump=max_jump)
-    units = [
-        unit
-        for index, cell in enumerate(cells)
-        for unit in cell_units(cell, index, free_space.free, tool_width, resolution, max_jump, cut_blocks)
-    ]
-    variant_count = max(len(unit.variants) for unit in units)
-    # Pairs (k, k ^ 1) repeat, so padding every unit to the same variant count keeps the pairing.
-    variants = [[unit.variants[k % len(unit.variants)] for k in range(variant_count)] for unit in units]
-    chosen_last = {k for k, unit in enumerate(units) if last_cells is not None and last_cells(cells[unit.cell])}
-    tour = route(variants, start_pixel, free_space.pairwise_distances, chosen_last, finish_pixel)
-    pieces = [np.array([start_pixel])]
-    position = start_pixel
-    for unit_index, variant in tour:
-        sweep = variants[unit_index][variant]
-        pieces += [free_space.transit(position, tuple(sweep[0])), sweep]
-        position = tuple(sweep[-1])
-    cell_order = list(dict.fromkeys(units[unit_index].cell for unit_index, _ in tour))
-    path = drop_redundant_points(np.vstack(pieces))
-    path = drop_idle_corners(path, free_space.free, tool_width / 2 / resolution, SHORTCUT_MARGIN_M / resolution)
-    return cells, cell_order, path

@@ -42,7 +42,11 @@ class PathFollower:
         goal_tolerance: distance (m) to the last waypoint at which the path is done.
         progress_tolerance: how close (m), along the segment, the robot must come to a waypoint
             before it moves on to the next segment.
-        deceleration: braking deceleration (m/s^2) used to slow down before stops.
+        deceleration: braking deceleration (m/s^2) used to slow down before stops. A drive that
+            takes a moment to follow a new speed command (the physics motor keeps the old speed
+            for a substep) overshoots a stop by that moment times the last drop in speed; 1 m/s^2
+            keeps the drop small enough that a stop lands within a few millimetres, where 2 m/s^2
+            overshot corners by more than a centimetre, into walls 1 cm away.
         heading_gain: proportional gain (1/s) from heading error to turn rate; by default
             0.8 / dt, which removes most of the error in one control period without overshoot.
     """

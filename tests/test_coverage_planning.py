@@ -13,16 +13,21 @@ import pytest
 from scipy import ndimage
 
 from baselines.coverage_planning import (
+    MIN_PLAN_COVERAGE,
     FreeSpace,
+    SweepOptions,
     astar,
-    cell_sweeps,
+    attachment_points,
+    cell_units,
     decompose,
+    drop_idle_corners,
     is_narrow,
     lane_lines,
     line_view,
     plan_coverage,
+    segment_footprint,
     segment_is_free,
-    swaths,
+    transpose_cell,
     world_to_pixel,
 )
 from baselines.path_following import PathFollower
@@ -91,10 +96,32 @@ def room_with_obstacles() -> np.ndarray:
     return free
 
 
+def cabin_zone() -> np.ndarray:
+    """A 3.7 m x 2.6 m cabin zone like the A320 cell: an open zone 0.95 m deep at the front
+    (x < 0.95 m), then two seat blocks with a legroom column (0.45 m) between them and one
+    behind, all crossed by a 0.4 m cross aisle in the middle."""
+    free = np.ones((74, 52), dtype=bool)
+    free[4:70, 19:27] = False
+    free[4:70, 35:43] = False
+    free[33:41, 19:43] = True
+    return free
+
+
+def two_rooms_and_a_corridor() -> np.ndarray:
+    """Two 1.5 m square rooms joined by a 1.2 m corridor that leaves the robot centre two
+    pixels of play (0.4 m wide)."""
+    free = np.zeros((30, 84), dtype=bool)
+    free[:, :30] = True
+    free[:, 54:] = True
+    free[11:19, 30:54] = True
+    return free
+
+
 SCENES = {
     "empty_room": (np.ones((80, 120), dtype=bool), (0.3, 0.3)),
     "room_with_obstacles": (room_with_obstacles(), (0.3, 0.3)),
     "cabin": (cabin(6.0, 4.0, end_margin=0.6), (0.3, 2.0)),
+    "cabin_zone": (cabin_zone(), (0.25, 1.85)),
 }
 
 
@@ -127,23 +154,29 @@ def stamp_discs(shape: tuple[int, int], positions: np.ndarray) -> np.ndarray:
     return covered
 
 
-def simulate(follower: PathFollower, pose, max_steps: int, substeps: int = 4, push=None) -> np.ndarray:
+def simulate(
+    follower: PathFollower, pose, max_steps: int, substeps: int = 4, push=None, lag_substeps: int = 0
+) -> np.ndarray:
     """Run the follower on a unicycle; returns every (x, y, heading) visited, substeps included.
 
     Each control period is integrated exactly (straight line or circular arc) in ``substeps``
     pieces so that the stamped discs leave no gaps. ``push(step, pose)`` may return a
-    displacement (dx, dy) applied after a period, as a wall contact would.
+    displacement (dx, dy) applied after a period, as a wall contact would. ``lag_substeps``
+    substeps of each period still run at the previous period's speeds, as a drive that takes a
+    moment to follow a new command does (the env's physics motor lags by one substep).
     """
     x, y, heading = pose
     poses = [(x, y, heading)]
+    previous = (0.0, 0.0)
     for step in range(max_steps):
         if follower.done:
             break
         linear, angular = follower.act((x, y, heading))
         assert -1.0 <= linear <= 1.0 and -1.0 <= angular <= 1.0
-        speed, turn_rate = linear * MAX_SPEED, angular * MAX_TURN_RATE
+        command = (linear * MAX_SPEED, angular * MAX_TURN_RATE)
         h = DT / substeps
-        for _ in range(substeps):
+        for substep in range(substeps):
+            speed, turn_rate = previous if substep < lag_substeps else command
             if abs(turn_rate) > 1e-12:
                 new_heading = heading + turn_rate * h
                 x += speed / turn_rate * (math.sin(new_heading) - math.sin(heading))
@@ -157,6 +190,7 @@ def simulate(follower: PathFollower, pose, max_steps: int, substeps: int = 4, pu
             dx, dy = push(step, (x, y, heading))
             x, y = x + dx, y + dy
             poses.append((x, y, heading))
+        previous = command
     return np.array(poses)
 
 
@@ -267,17 +301,68 @@ def test_lanes_stay_inset_from_a_free_cell_boundary():
     assert left_lines[0] == 23 and left_lines[-1] == 39
 
 
-def test_narrow_cell_is_swept_along_both_edges():
+def test_dead_end_is_swept_along_both_edges():
     free = np.zeros((40, 10), dtype=bool)
     free[2:38, 3:6] = True
     (cell,) = decompose(free, sweep_axis=0)
     assert is_narrow(cell, TOOL_WIDTH, RESOLUTION)
-    edges = swaths(cell, free, TOOL_WIDTH, RESOLUTION)
-    assert len(edges) == 2
-    sweeps = cell_sweeps(cell, edges, free, narrow=True)
-    for sweep in sweeps:
-        assert set(map(tuple, sweep)) == {(2, 3), (37, 3), (37, 5), (2, 5)}  # out and back
-    assert np.array_equal(sweeps[1], sweeps[0][::-1]) and np.array_equal(sweeps[3], sweeps[2][::-1])
+    units = cell_units(cell, 0, free, TOOL_WIDTH, RESOLUTION)
+    # One unit per edge, so that the way in and the way out are routed like any other pass.
+    assert [set(map(tuple, unit.variants[0])) for unit in units] == [{(2, 3), (37, 3)}, {(2, 5), (37, 5)}]
+    for unit in units:
+        assert len(unit.variants) == 2 and np.array_equal(unit.variants[1], unit.variants[0][::-1])
+
+
+def test_corridor_between_two_rooms_is_swept_by_one_zigzag():
+    free = two_rooms_and_a_corridor()
+    centre_free = erode_by_radius(free)
+    corridor_rows = np.flatnonzero(centre_free[:, 42])
+    assert len(corridor_rows) == 2  # two pixels of play
+    cells = decompose(centre_free, 1, max_jump=3)
+    corridors = [cell for cell in cells if is_narrow(cell, TOOL_WIDTH, RESOLUTION)]
+    assert len(corridors) == 1
+    (unit,) = cell_units(corridors[0], 0, centre_free, TOOL_WIDTH, RESOLUTION, max_jump=3)
+    zigzag = unit.variants[0]
+    middle = zigzag[(zigzag[:, 1] > 33) & (zigzag[:, 1] < 51)]
+    assert set(middle[:, 0]) == set(corridor_rows)
+    assert np.all(np.abs(np.diff(middle, axis=0)) == 1)  # one line on, the other edge: 45 degrees
+    assert all(segment_is_free(centre_free, a, b) for a, b in zip(zigzag[:-1], zigzag[1:]))
+
+    start = (0.3, 0.75)
+    plan = plan_coverage(centre_free, RESOLUTION, ORIGIN, TOOL_WIDTH, start)
+    edges = plan_coverage(
+        centre_free, RESOLUTION, ORIGIN, TOOL_WIDTH, start, options=SweepOptions(corridor_zigzags=False)
+    )
+    assert plan.coverage >= MIN_PLAN_COVERAGE and edges.coverage >= MIN_PLAN_COVERAGE
+    assert plan.length < edges.length - 0.3  # the corridor is 1.2 m long: once at x1.4, not twice
+    assert plan_segments_are_free(plan, centre_free)
+
+
+def test_corridor_lanes_are_cut_where_pockets_attach():
+    centre_free = erode_by_radius(cabin(6.0, 4.0))
+    cells = decompose(centre_free, sweep_axis=0, max_jump=3)
+    aisle = max(cells, key=lambda cell: cell.intervals[:, 1].max() - cell.intervals[:, 0].min())
+    lines = line_view(centre_free, 0)
+    points = attachment_points(aisle, lines)
+    assert len(points) == 7  # seven legroom pockets on either side, facing each other
+    units = cell_units(aisle, 0, centre_free, TOOL_WIDTH, RESOLUTION, max_jump=3)
+    lanes = lane_lines(aisle, lines, TOOL_WIDTH, RESOLUTION)
+    pieces_per_lane = len(units) // len(lanes)
+    assert len(units) == len(lanes) * pieces_per_lane and pieces_per_lane == len(points) + 1
+    for unit in units:  # each piece is a straight stretch of a lane
+        (row_a, col_a), (row_b, col_b) = unit.variants[0]
+        assert row_a == row_b and row_a in lanes and col_a < col_b
+
+
+def test_transposed_cell_has_the_same_pixels():
+    free = np.zeros((30, 20), dtype=bool)
+    free[5:25, 4:16] = True
+    free[10:20, 16:18] = True  # a bump on one side: still one cell across without max_jump
+    (cell,) = decompose(free, sweep_axis=0)
+    across = transpose_cell(cell)
+    assert across is not None and across.sweep_axis == 1 and across.area_px == cell.area_px
+    assert all(across.contains(row, col) for row, col in zip(*np.nonzero(free)))
+    assert transpose_cell(cell, max_jump=3) is None  # the bump's 10-pixel jump splits it
 
 
 def test_astar_is_optimal_and_stays_free():
@@ -312,6 +397,35 @@ def test_segment_check_rejects_corner_cutting():
     assert not segment_is_free(free, (2, 0), (2, 5))  # leaves the raster
 
 
+def touches_square(start, end, centre) -> bool:
+    """Reference: does the closed segment meet the closed pixel square (Liang-Barsky clipping)?"""
+    low, high = 0.0, 1.0
+    delta = np.subtract(end, start)
+    for axis in (0, 1):
+        for bound, sign in ((centre[axis] - 0.5, -1.0), (centre[axis] + 0.5, 1.0)):
+            p, q = sign * delta[axis], sign * (bound - start[axis])
+            if p == 0.0:
+                if q < 0.0:
+                    return False
+            elif p < 0.0:
+                low = max(low, q / p)
+            else:
+                high = min(high, q / p)
+    return low <= high + 1e-12
+
+
+def test_segment_check_matches_a_clipping_reference():
+    rng = np.random.default_rng(1)
+    for trial in range(400):
+        free = rng.random((10, 10)) > 0.1
+        start, end = rng.integers(0, 10, 2).astype(float), rng.integers(0, 10, 2).astype(float)
+        if trial % 2:  # fractional ends, kept inside their pixels
+            start, end = start + rng.uniform(-0.45, 0.45, 2), end + rng.uniform(-0.45, 0.45, 2)
+        blocked = zip(*np.nonzero(~free))
+        expected = not any(touches_square(start, end, pixel) for pixel in blocked)
+        assert segment_is_free(free, start, end) == expected, (start, end)
+
+
 # ------------------------------------------------------------------------------------------
 # Whole plans, followed in the kinematic simulator
 # ------------------------------------------------------------------------------------------
@@ -324,6 +438,7 @@ def test_plan_and_follow_covers_the_reachable_area(scene):
     plan = plan_coverage(centre_free, RESOLUTION, ORIGIN, TOOL_WIDTH, start)
     assert np.allclose(plan.waypoints[0], start)
     assert plan_segments_are_free(plan, centre_free)
+    assert plan.coverage >= MIN_PLAN_COVERAGE
 
     follower = PathFollower(plan.waypoints, MAX_SPEED, MAX_TURN_RATE, DT)
     poses = simulate(follower, (*start, 0.0), max_steps=20000)
@@ -383,6 +498,41 @@ def test_last_cells_are_swept_last():
     assert plan_segments_are_free(plan, centre_free)
 
 
+def test_per_cell_direction_beats_a_single_axis():
+    # The cabin zone: columns of legroom crossing an aisle, and an open zone 0.55 m wide (for
+    # the robot centre) at the front. Lanes along the columns suit the columns, but the front
+    # zone then needs three long lanes 5 pixels apart; lanes across it, 11 short ones, cover it
+    # with less driving. Only a per-cell choice gets both.
+    centre_free = erode_by_radius(cabin_zone())
+    start = SCENES["cabin_zone"][1]
+    per_cell = plan_coverage(centre_free, RESOLUTION, ORIGIN, TOOL_WIDTH, start)
+    for axis in (0, 1):
+        single = plan_coverage(
+            centre_free, RESOLUTION, ORIGIN, TOOL_WIDTH, start, sweep_axis=axis,
+            options=SweepOptions(lane_direction="slice"),
+        )
+        print(f"cabin zone: per-cell {per_cell.length:.2f} m, single axis {axis} {single.length:.2f} m")
+        assert per_cell.length < single.length - 0.5
+    assert per_cell.coverage >= MIN_PLAN_COVERAGE
+    assert plan_segments_are_free(per_cell, centre_free)
+
+
+def test_dropping_idle_corners_keeps_coverage():
+    free = np.ones((30, 40), dtype=bool)
+    radius_px = RADIUS / RESOLUTION
+    # Two lanes, a detour back into the area they cover, then the third lane.
+    path = np.array([[5, 5], [5, 35], [12, 35], [12, 5], [9, 10], [19, 5], [19, 35]], dtype=float)
+    shorter = drop_idle_corners(path, free, radius_px)
+
+    def covered(points):
+        pixels = [segment_footprint(a, b, radius_px, free.shape) for a, b in zip(points[:-1], points[1:])]
+        return set(np.concatenate(pixels).tolist())
+
+    assert [9, 10] not in shorter.tolist()
+    assert covered(shorter) >= covered(path)
+    assert len(shorter) < len(path) and np.array_equal(shorter[[0, -1]], path[[0, -1]])
+
+
 def test_long_cabin_plan_and_its_planning_time():
     free = cabin(20.0, 4.0, end_margin=0.6)
     assert free.shape == (80, 400)
@@ -419,6 +569,18 @@ def test_follower_tracks_corners_closely():
     assert follower.done
     assert np.hypot(*(poses[-1, :2] - path[-1])) <= follower.goal_tolerance
     assert distance_to_polyline(poses[:, :2], path).max() < 0.005
+
+
+def test_follower_stops_on_corners_despite_a_lagging_drive():
+    # A long diagonal at full speed into a corner, as transits into cell corners are: the drive
+    # keeps its old speed for a quarter of each period, and the robot must still stop within
+    # millimetres of the corner and of the end (walls may be 1 cm away).
+    path = np.array([[0.0, 0.0], [1.5, 0.6], [1.5, 2.0]])
+    follower = PathFollower(path, MAX_SPEED, MAX_TURN_RATE, DT)
+    poses = simulate(follower, (0.0, 0.0, math.atan2(0.6, 1.5)), max_steps=1000, lag_substeps=1)
+    assert follower.done
+    # Overshoot at the corner and past the end (12 mm with a braking deceleration of 2 m/s^2).
+    assert distance_to_polyline(poses[:, :2], path).max() < 0.008
 
 
 def test_follower_recovers_from_pushes():
