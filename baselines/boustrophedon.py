@@ -8,47 +8,57 @@ sweep stays clear of its closed bounds and sweeps the sub-cells holding goal mar
 that the cell, which clears when its last goal is reached, is fully swept by then), then an A*
 transit drives to the exit landmark of the next cell. In ``open`` the whole layout is one plan.
 
-Teams (``n_agents`` = K > 1, :func:`team_split`, :func:`plan_team`). Cabin aisles and legroom
-pockets are single file (a 0.35 m robot in a 0.48 m aisle), so the split is built so that robots
-never have to pass each other, and they leave in a fixed *convoy* order:
+Teams (``n_agents`` = K > 1, :func:`team_split`, :func:`team_plans`). Cabin aisles and legroom
+pockets are single file (a 0.35 m robot in a 0.48 m aisle: two cannot pass), so the work is
+split so that robots never have to pass or meet head-on, and they move in a fixed *convoy*:
 
-- **Work units.** The region to clean (the whole layout in ``open``, one cell at a time in
-  ``sequential``) is cut into units around its goal markers: each pixel goes to the goal marker
-  nearest to it along the free space (a multi-source Dijkstra, so every unit is connected). In a
-  cabin a unit is one legroom pocket (or half of a galley zone) with the stretch of aisle in
-  front of it. A region without goal markers is cut into strips across x instead.
-- **Shares.** The units are ordered along the cabin (x), farthest from where the team comes in
-  first (ties: larger y first), and cut into K contiguous groups that minimise the largest
-  estimated finishing time (departure delay + travel to the group + the planned sweep
-  durations of its units; a small dynamic programme). Group ``r`` goes to the robot of *rank*
-  ``r``; with fewer units than robots the last ranks get an empty share and wait where they are.
-  The shares are disjoint and cover the region.
-- **Convoy order.** Ranks are fixed for the episode. In the first stage they are assigned from
-  the start poses (:func:`cabinbench.world.start_poses`: all robots start in the first cell) by
-  minimising the summed squared travel distance, which gives the farthest group to the robot
-  nearest the way out. Rank ``r`` sets off ``r × DEPARTURE_GAP`` seconds after the team's
-  start (or after the cell cleared, below), so robots enter the aisle in rank order, the leader
-  heading farthest: nobody ever has to pass a robot in front, and a robot's own sweep never
-  reaches back into a unit that a robot behind it still has to drive through.
-- **Sequential.** The team works through the cells together: each cell is split as above
-  (entered at the exit landmark of the previous cell). Every robot sweeps its share up to the
-  first touch of its last goal marker (the sweep takes the pockets holding goals last) and waits
-  there, at the dead end of a pocket, out of everyone's way. The cell clears when the last robot
-  reaches its goal; all robots see that in ``info["cells_cleared"]`` on the same step and leave
-  in rank order, ``DEPARTURE_GAP`` apart: each finishes the rest of its sweep (the way out of
-  the pocket) and drives into the next cell, rank 0 through the exit landmark (which moves the
-  team's cell on). In the last cell every robot holds its final goal back until the rest of its
-  share is swept, so the episode (which ends on the last goal) ends only when all shares are.
-- **Open.** One stage over the whole layout: each robot drives to its block of the cabin and
-  sweeps it; the blocks are ordered along the cabin and the leader takes the farthest.
+- **The way.** Each stage (one cell in ``sequential``; the whole layout in ``open``) has a
+  *through way*: the shortest path along the aisle from the near end of the region (the galley
+  wall in the first cell) to the exit landmark of the next cell, or to the far end in a dead end
+  (the last cell, ``open``). The band ``THROUGH_BAND`` around it is left to the robots driving
+  along it (a pass covers it); nobody sweeps it, so no sweep ever runs along the aisle.
+- **Work units.** The band cuts the region into the pieces that branch off the aisle: legroom
+  pockets, the two halves of a galley zone, the corridors between two aisles. A piece holding
+  several goal markers (everything beyond a second aisle) is cut further around them (each pixel
+  joins the goal marker nearest along the free space); a piece without one joins the nearest
+  unit on its side of the aisle, and pieces beyond the last goal marker (a rear galley) all go to
+  one unit. Units meeting along a long boundary are merged, a unit that does not touch the band
+  joins the unit that leads to it, and with fewer units than robots the largest open unit is
+  halved. Without goal markers the region is cut into strips across x instead.
+- **Shares.** The units are ordered along the cabin, farthest first, and cut into K contiguous
+  groups minimising the largest estimated finishing time (departure delay + travel + planned
+  sweep times; a small dynamic programme). Group ``r`` is the share of the robot of *rank*
+  ``r``; extra robots (more robots than units) wait where they are. Shares are disjoint and
+  cover the region; the band belongs to the leader's share (it drives it), except the stretches
+  where one robot can sweep it with nobody else about: behind everyone for the last robot to
+  set off in the first stage, beyond everyone for the leader in a dead end.
+- **Convoy order.** Ranks are fixed for the episode: in the first stage they are assigned from
+  the start poses (:func:`cabinbench.world.start_poses`) by minimising the summed squared travel,
+  which gives the farthest share to the robot nearest the way out. Rank ``r`` sets off
+  ``r × DEPARTURE_GAP`` seconds after the start, so robots enter the aisle in rank order, the
+  leader heading farthest; every transit keeps to the band and the robot's own share where it
+  can, so nobody crosses another robot's share.
+- **Sequential.** The team works through the cells together. Every robot sweeps its share, the
+  pieces with goal markers last, up to the first touch of its last goal marker, and waits there,
+  at the dead end of a pocket, out of everyone's way. The cell clears when the last robot
+  reaches its goal; all robots see that in ``info["cells_cleared"]`` on the same step. Then all
+  back out at once to a *staging point* clear of the aisle (two radii and ``STAGING_GAP`` from
+  the way), and rank ``r`` drives on ``T + r × DEPARTURE_GAP`` seconds after the clear (``T``:
+  the longest estimated back-out), into its share of the next cell, the leader through the exit
+  landmark (which moves the team's cell on). In the last cell every robot holds its final goal
+  back until the rest of its share is swept (then sweeps the spot it held back), so the episode,
+  which ends on the team's last goal, ends only when every share is swept.
+- **Open.** One stage over the whole layout: each robot drives along the aisle to its block of
+  the cabin and sweeps it, the leader taking the farthest block.
 - **Safety.** A robot whose lidar shows another robot right in front of it stops driving
-  forward (it may still turn) until the way is clear, for at most ``BLOCKED_PATIENCE`` seconds.
-  The plans make such meetings rare (a robot catching up at a pocket mouth); this keeps them
-  from turning into contacts.
+  forward (it may still turn) until the way is clear, for at most ``BLOCKED_PATIENCE`` seconds
+  (then it drives on rather than wait for ever). The plans make such meetings rare (a robot
+  catching up with one turning into a pocket).
 
-A baseline only sees its own ``info``, so the team coordinates through the plans (every robot
-computes the same split, cached per layout) and the team's shared ``info`` entries (``time``,
-``cells_cleared``).
+A baseline sees only its own ``info``, so the team coordinates through its plans (all robots'
+plans are computed once per layout and team, each robot takes its own) and the team's shared
+``info`` entries (``time``, ``cells_cleared``): it waits, it never moves a robot but through
+actions.
 
 Following: a :class:`~.path_following.PathFollower` turns the waypoints into velocity commands
 from ``info["pose"]``.
@@ -79,17 +89,18 @@ from .coverage_planning import FreeSpace, driving_time, pixels_to_world, plan_co
 from .path_following import PathFollower
 
 BOUND_MARGIN = 0.03  # metres kept between the robot's disc and a closed bound
-DEPARTURE_GAP = 2.5  # seconds between robots setting off, in convoy (rank) order
+DEPARTURE_GAP = 2.0  # seconds between robots setting off, in convoy (rank) order
 FOLLOW_GAP = 0.12  # metres: stop driving forward when another robot is this close in front
 ON_WAYPOINT = 0.05  # metres: a leg whose first waypoint is this close starts at its second
 BLOCKED_PATIENCE = 5.0  # seconds a robot waits for a robot in front before it drives on anyway
 MIN_SWEEP_COMPONENT_PX = 4  # smaller scraps of a share are left to the neighbouring sweeps
 GOAL_TOUCH_MARGIN = 0.03  # metres inside the reach at which a sweep counts as touching a goal
 STAGING_GAP = 0.06  # metres between a staged robot and one passing along the through way
-STAGING_MARGIN = 1.0  # seconds added to the estimated back-out time before the convoy moves on
+STAGING_MARGIN = 0.5  # seconds added to the estimated back-out time before the convoy moves on
 THROUGH_BAND = 0.2  # metres each side of the through way left to the robots driving along it
-MERGE_BOUNDARY_PX = 3
-LANE_END_SLACK = 0.12  # metres around a transit's ends where it may use either side of the aisle  # units meeting along this many pixels or more are merged
+MERGE_BOUNDARY_PX = 3  # units meeting along this many pixels or more are merged
+OPEN_UNIT_PX = 3  # a unit this many pixels from its edge at its widest is open floor (it may be halved)
+BAND_OWNER_GAP = 0.1  # metres kept between a robot sweeping the band and the others' shares
 
 
 @dataclass
@@ -141,12 +152,17 @@ def plan_layout(layout: Layout, protocol: str = "sequential", agent: int = 0, n_
     return legs
 
 
-def _plan(layout: Layout, region: np.ndarray, start: np.ndarray, goals: np.ndarray | None):
+def _plan(layout: Layout, region: np.ndarray, start: np.ndarray, goals: np.ndarray | None, quickest: bool = False):
+    """``plan_coverage`` of ``region`` from ``start``; with ``quickest`` both sweep axes are
+    planned and the plan with the shorter estimated driving time is kept (in a 2-pixel-wide
+    pocket the shortest plan can be a zigzag across it, one turn per pixel)."""
     robot = layout.robot
     goal_pixels = [] if goals is None else [world_to_pixel(g, RESOLUTION, layout.origin) for g in goals]
     last_cells = (lambda cell: any(cell.contains(*pixel) for pixel in goal_pixels)) if goal_pixels else None
-    return plan_coverage(region, RESOLUTION, layout.origin, robot.tool_width, start, last_cells,
-                         max_speed=robot.max_speed, max_turn_rate=robot.max_turn_rate)
+    axes = (0, 1) if quickest else (None,)
+    plans = [plan_coverage(region, RESOLUTION, layout.origin, robot.tool_width, start, last_cells, sweep_axis=axis,
+                           max_speed=robot.max_speed, max_turn_rate=robot.max_turn_rate) for axis in axes]
+    return min(plans, key=lambda plan: plan.duration)
 
 
 def _near_points(layout: Layout, points: np.ndarray, distance: float) -> np.ndarray:
@@ -158,9 +174,17 @@ def _near_points(layout: Layout, points: np.ndarray, distance: float) -> np.ndar
     return near
 
 
-def _transit(layout: Layout, region: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
-    """An A* path (metres) from ``start`` to ``end`` through ``region``."""
-    pixels = FreeSpace(region).transit(world_to_pixel(start, RESOLUTION, layout.origin), world_to_pixel(end, RESOLUTION, layout.origin))
+def _transit(layout: Layout, region: np.ndarray, start: np.ndarray, end: np.ndarray,
+             fallback: np.ndarray | None = None) -> np.ndarray:
+    """An A* path (metres) from ``start`` to ``end`` through ``region`` (else through ``fallback``)."""
+    begin, goal = world_to_pixel(start, RESOLUTION, layout.origin), world_to_pixel(end, RESOLUTION, layout.origin)
+    if fallback is not None:
+        try:
+            pixels = FreeSpace(region).transit(begin, goal)
+        except ValueError:
+            pixels = FreeSpace(fallback).transit(begin, goal)
+    else:
+        pixels = FreeSpace(region).transit(begin, goal)
     return np.vstack([start, pixels_to_world(pixels, RESOLUTION, layout.origin)[1:-1], end])
 
 
@@ -222,7 +246,7 @@ class TeamStage:
     shares: list[np.ndarray]
     goals: list[np.ndarray]
     through: np.ndarray  # the way the convoy drives through (swept by driving, not by sweeps)
-    way: np.ndarray  # the centre line of that way (N, 2), metres
+    ways: list[np.ndarray]  # the centre lines of those ways (N, 2), metres, one per aisle
     sweeps: list[np.ndarray]  # by rank: what that robot sweeps (its share, less the band others drive)
     estimates: list[float] = field(default_factory=list)  # estimated finishing time per rank (s)
 
@@ -246,21 +270,28 @@ def team_split(layout: Layout, protocol: str, n_agents: int) -> TeamSplit:
     starts = start_poses(layout, n_agents)[:, :2]
     drivable = _reachable(layout)
     if protocol == "open":
-        stages = [_stage(layout, -1, drivable, layout.goals, starts[0], n_agents, None, True)]
+        aisles = layout.passages[0].exits[:, 1] if layout.passages else np.array([starts[0][1]])
+        legs = [(starts[0], _far_end(layout, drivable, starts[0], y)) for y in aisles]
+        legs = sorted(legs, key=lambda leg: abs(leg[1][1] - starts[0][1]))[:1]
+        stages = [_stage(layout, -1, drivable, layout.goals, starts[0], n_agents, legs, True, True)]
         corridor = drivable
     else:
         first = layout.cleared_cells
         stages, entry = [], starts[0]
         for cell in range(first, len(layout.cells)):
-            if cell > 0:
-                exits = layout.passages[cell - 1].exits
-                entry = exits[np.argmin(np.hypot(*(exits - entry).T))]
+            sources = layout.passages[cell - 1].exits if cell > 0 else entry[None]
+            entry = sources[np.argmin(np.hypot(*(sources - entry).T))]
             region = _cell_region(layout, cell) & drivable
-            exit_point = None
-            if cell < len(layout.passages):
-                exits = layout.passages[cell].exits
-                exit_point = exits[np.argmin(np.hypot(*(exits - entry).T))]
-            stages.append(_stage(layout, cell, region, layout.cells[cell].goals, entry, n_agents, exit_point,
+            dead_end = cell >= len(layout.passages)
+            if dead_end:
+                targets = np.array([_far_end(layout, region, entry, y) for y in sources[:, 1]])
+            else:
+                targets = layout.passages[cell].exits
+            # one way per aisle, from where the team may come in to where it leaves
+            legs = [(sources[np.argmin(np.abs(sources[:, 1] - target[1]))], target) for target in targets]
+            legs.sort(key=lambda leg: np.hypot(*(leg[0] - entry)) + 1e-3 * np.hypot(*(leg[1] - entry)))
+            legs = legs[:1]  # the convoy's aisle (a second aisle stays in the shares: it is swept)
+            stages.append(_stage(layout, cell, region, layout.cells[cell].goals, entry, n_agents, legs, dead_end,
                                  cell == first))
         start_cell = layout.cell_raster[layout.to_pixel(*layout.start[:2])]
         corridor = drivable & (layout.cell_raster >= min(start_cell, first)) & (layout.cell_raster <= max(first, 0))
@@ -280,11 +311,11 @@ def _reachable(layout: Layout) -> np.ndarray:
 
 
 def _stage(layout: Layout, cell: int, region: np.ndarray, goals: np.ndarray, entry: np.ndarray, n_agents: int,
-           exit_point: np.ndarray | None, first: bool) -> TeamStage:
-    units, unit_goals = work_units(layout, region, goals, entry, n_agents)
-    way = _through_way(layout, region, entry, exit_point if exit_point is not None else _far_end(layout, region, entry))
-    through = _near_polyline(layout, way, THROUGH_BAND) & region
-    units, unit_goals = _merge_open_units(units & ~through, unit_goals)
+           legs: list, dead_end: bool, first: bool) -> TeamStage:
+    # the way starts at the near end of the region (behind the entry: the galley wall in the first cell)
+    ways = [_through_way(layout, region, _far_end(layout, region, target, source[1]), target) for source, target in legs]
+    through = np.any([_near_polyline(layout, way, THROUGH_BAND) for way in ways], axis=0) & region
+    units, unit_goals = work_units(layout, region, goals, through, ways[0], entry, n_agents)
     robot = layout.robot
     durations = np.array([_sweep_duration(layout, unit, entry) for unit in units])
     travel = _geodesic_from(layout, region, entry, units) / robot.max_speed
@@ -293,36 +324,41 @@ def _stage(layout: Layout, cell: int, region: np.ndarray, goals: np.ndarray, ent
     for begin, end in groups:
         shares.append(np.any(units[begin:end], axis=0) if end > begin else np.zeros_like(region))
         share_goals.append(np.concatenate(unit_goals[begin:end]) if end > begin else np.zeros((0, 2)))
-    sweeps = _band_owners(layout, way, through, shares, first=first, dead_end=exit_point is None)
+    sweeps = _band_owners(layout, ways, through, shares, first=first, dead_end=dead_end)
     shares[0] = shares[0] | (through & ~np.any(sweeps, axis=0))  # the leader drives the rest of the way
     for rank, sweep in enumerate(sweeps):
         shares[rank] = shares[rank] | (sweep & through)
-    return TeamStage(cell, np.asarray(entry, dtype=float), shares, share_goals, through, way, sweeps, estimates)
+    return TeamStage(cell, np.asarray(entry, dtype=float), shares, share_goals, through, ways, sweeps, estimates)
 
 
-def _band_owners(layout: Layout, way: np.ndarray, through: np.ndarray, shares: list[np.ndarray],
+def _band_owners(layout: Layout, ways: list[np.ndarray], through: np.ndarray, shares: list[np.ndarray],
                  first: bool, dead_end: bool) -> list[np.ndarray]:
-    """What each rank sweeps: its share, plus the stretch of the through band inside its own
-    stretch of the way where no other robot will drive while it sweeps: behind everyone for
-    the last robot to set off in the first stage (the others have left the start zone by
-    then), and beyond everyone for the leader in a dead end (the last cell, or ``open``)."""
+    """What each rank sweeps: its share, plus the stretches of the through band where no other
+    robot will drive while it sweeps: behind all the others' shares for the last robot to set
+    off in the first stage (the others have left by then), and beyond all of them for the
+    leader in a dead end (the last cell, or ``open``)."""
     sweeps = [share.copy() for share in shares]
     busy = [rank for rank, share in enumerate(shares) if share.any()]
-    if len(busy) < 2 or len(way) < 2:
-        return sweeps
+    if len(busy) < 2 or len(ways) != 1 or len(ways[0]) < 2:
+        return sweeps  # with several aisles, every robot may cross any stretch: leave the bands alone
+    way = ways[0]
     band_s = np.full(through.shape, np.nan)
     band_s[through] = _arc_position(way, layout, through)
     spans = []
     for rank in busy:
         along = _arc_position(way, layout, shares[rank])
         spans.append((along.min(), along.max()))
-    margin = 2 * layout.robot.radius
+    margin = 2 * layout.robot.radius + BAND_OWNER_GAP
+    swept_up_to = -np.inf
     last, (low, high) = busy[-1], spans[-1]
-    if first and all(other_low > high + margin for other_low, _ in spans[:-1]):
-        sweeps[last] |= through & (band_s <= high)
+    others_low = min(other_low for other_low, _ in spans[:-1])
+    if first and others_low - margin > high:
+        swept_up_to = others_low - margin
+        sweeps[last] |= through & (band_s <= swept_up_to)
     low, high = spans[0]
-    if dead_end and busy[0] == 0 and all(other_high < low - margin for _, other_high in spans[1:]):
-        sweeps[0] |= through & (band_s >= low)
+    others_high = max(other_high for _, other_high in spans[1:])
+    if dead_end and busy[0] == 0 and others_high + margin < low:
+        sweeps[0] |= through & (band_s >= others_high + margin) & (band_s > swept_up_to)
     return sweeps
 
 
@@ -351,14 +387,18 @@ def _through_way(layout: Layout, region: np.ndarray, entry: np.ndarray, target) 
     return np.column_stack([xs[path[:, 1]], ys[path[:, 0]]])
 
 
-def _far_end(layout: Layout, region: np.ndarray, entry: np.ndarray) -> np.ndarray:
-    """The end of ``region`` away from ``entry`` along x (the cabin's length), level with the
-    entry as far as the region allows: where the aisle leads to."""
+def _far_end(layout: Layout, region: np.ndarray, entry: np.ndarray, level: float | None = None) -> np.ndarray:
+    """Where the aisle at height ``level`` (default: the entry's) ends, away from ``entry``
+    along x (the cabin's length): the farthest pixel of ``region`` within a pixel or two of
+    that height (``entry`` itself when the region has none there)."""
     xs, ys = layout.pixel_centres()
-    rows, cols = np.nonzero(region)
+    level = entry[1] if level is None else level
+    rows, cols = np.nonzero(region & (np.abs(ys - level) <= 2.5 * RESOLUTION)[:, None])
+    if not len(rows):
+        return np.asarray(entry, dtype=float)
     away = cols.max() if entry[0] <= xs[cols].mean() else cols.min()
     rows = rows[cols == away]
-    return np.array([xs[away], ys[rows[np.argmin(np.abs(ys[rows] - entry[1]))]]])
+    return np.array([xs[away], ys[rows[np.argmin(np.abs(ys[rows] - level))]]])
 
 
 def _near_polyline(layout: Layout, points: np.ndarray, distance: float) -> np.ndarray:
@@ -373,6 +413,29 @@ def _near_polyline(layout: Layout, points: np.ndarray, distance: float) -> np.nd
         t = np.clip(((grid_x - x0) * direction[0] + (grid_y - y0) * direction[1]) / length_sq, 0, 1)
         near |= np.hypot(grid_x - (x0 + t * direction[0]), grid_y - (y0 + t * direction[1])) <= distance
     return near
+
+
+def _attach_to_way(units: np.ndarray, unit_goals: list[np.ndarray], through: np.ndarray):
+    """Merge every unit that does not touch the through band into the neighbour it shares the
+    longest boundary with (a pocket off a second aisle joins the corridor that leads to it), so
+    that every robot reaches its share from the convoy's aisle without crossing another's."""
+    units, unit_goals = list(units), list(unit_goals)
+    near_way = ndimage.binary_dilation(through)
+    while len(units) > 1:
+        detached = [k for k, unit in enumerate(units) if not (unit & near_way).any()]
+        if not detached:
+            break
+        k = detached[0]
+        grown = ndimage.binary_dilation(units[k])
+        contact = [(grown & other).sum() if j != k else 0 for j, other in enumerate(units)]
+        j = int(np.argmax(contact))
+        if contact[j] == 0:
+            break  # an island: it keeps its own robot
+        keep, drop = min(j, k), max(j, k)
+        units[keep] = units[keep] | units[drop]
+        unit_goals[keep] = np.concatenate([unit_goals[keep], unit_goals[drop]])
+        del units[drop], unit_goals[drop]
+    return np.array(units).reshape(len(units), *through.shape), unit_goals
 
 
 def _merge_open_units(units: np.ndarray, unit_goals: list[np.ndarray]):
@@ -409,44 +472,130 @@ def _merge_open_units(units: np.ndarray, unit_goals: list[np.ndarray]):
     return merged.reshape(len(kept), *units.shape[1:]), goals
 
 
-def work_units(layout: Layout, region: np.ndarray, goals: np.ndarray, entry: np.ndarray, n_agents: int):
-    """``region`` cut into work units, ordered farthest from ``entry`` (along x) first.
+def work_units(layout: Layout, region: np.ndarray, goals: np.ndarray, through: np.ndarray, way: np.ndarray,
+               entry: np.ndarray, n_agents: int):
+    """``region`` less the ``through`` band cut into work units, ordered farthest from ``entry``
+    (along x) first. Returns (unit masks (U, H, W) bool, goal markers (M_u, 2) per unit).
 
-    With goal markers: every pixel joins the goal nearest along the free space (in a cabin, one
-    legroom pocket and the aisle in front of it per unit). Without: ``3 × n_agents`` strips of
-    equal area across x. Returns (unit masks (U, H, W) bool, goal markers (M_u, 2) per unit).
+    The band cuts a cabin into the pieces that branch off the aisle: legroom pockets, the halves
+    of the galley zones, the corridors between two aisles. A piece holding several goal markers
+    (everything beyond a second aisle, say) is cut further, every pixel joining the goal marker
+    nearest along the free space; pieces without a goal marker join the nearest unit. Then
+    units meeting along a long boundary are merged (:func:`_merge_open_units`), units that do
+    not touch the band join the one that leads to them (:func:`_attach_to_way`) and, while there
+    are fewer units than robots, the largest open unit is halved (:func:`_halve`). Without goal
+    markers the region is cut into ``3 × n_agents`` strips of equal area across x instead.
     """
     region = np.asarray(region, dtype=bool)
-    free = FreeSpace(region)
-    goal_pixels = [_nearest_pixel(region, layout, goal) for goal in goals]
-    if goal_pixels:
-        nodes = np.array([free.node_id[pixel] for pixel in goal_pixels])
-        unique_nodes, first_goal = np.unique(nodes, return_index=True)
-        _, _, sources = dijkstra(free.graph, directed=False, indices=unique_nodes, min_only=True, return_predecessors=True)
-        label = np.full(region.shape, -1, dtype=int)
-        reached = sources >= 0
-        node_to_unit = {int(node): k for k, node in enumerate(unique_nodes)}
-        flat_units = np.full(len(sources), -1)
-        flat_units[reached] = [node_to_unit[int(s)] for s in sources[reached]]
-        label[region] = flat_units
-        if (label[region] < 0).any():  # pixels cut off from every goal join the nearest unit
-            _, (rows, cols) = ndimage.distance_transform_edt(label < 0, return_indices=True)
-            stray = region & (label < 0)
-            label[stray] = label[rows[stray], cols[stray]]
-        units = [label == k for k in range(len(unique_nodes))]
-        unit_goals = [goals[[g for g, node in enumerate(nodes) if node == unique_nodes[k]]] for k in range(len(unique_nodes))]
-        keys = [(goals[first_goal[k], 0], goals[first_goal[k], 1]) for k in range(len(unique_nodes))]
+    rest = region & ~through
+    xs, ys = layout.pixel_centres()
+    units, unit_goals = [], []
+    if len(goals):
+        labels, count = ndimage.label(rest)
+        owner = np.array([labels[_nearest_pixel(rest, layout, goal)] for goal in goals])
+        for piece_label in range(1, count + 1):
+            piece = labels == piece_label
+            mine = goals[owner == piece_label]
+            if len(mine):
+                parts = _voronoi(layout, piece, mine) if len(mine) > 1 else [(piece, mine)]
+                units += [part for part, _ in parts]
+                unit_goals += [part_goals for _, part_goals in parts]
+        if not units:
+            units, unit_goals = [rest], [goals]
+        # pieces without a goal marker join the nearest unit on the same side of the way
+        # (pieces beyond the last goal marker, at the dead end of the way, go to one robot: two
+        # robots would meet head-on in the aisle on their ways there and back)
+        sides = [_side_of_way(layout, way, unit) for unit in units]
+        gaps = [ndimage.distance_transform_edt(~unit) for unit in units]
+        reach = max(float(_arc_position(way, layout, unit).max()) for unit in units) if len(way) > 1 else np.inf
+        beyond = []
+        for piece_label in range(1, count + 1):
+            if (owner == piece_label).any():
+                continue
+            piece = labels == piece_label
+            side = _side_of_way(layout, way, piece)
+            candidates = [k for k in range(len(units)) if sides[k] == side] or list(range(len(units)))
+            k = min(candidates, key=lambda j: gaps[j][piece].min())
+            units[k] = units[k] | piece
+            if len(way) > 1 and _arc_position(way, layout, piece).min() > reach:
+                beyond.append(k)
+        beyond = sorted(set(beyond))
+        if len(beyond) > 1:
+            keep = beyond[0]
+            for k in beyond[:0:-1]:
+                units[keep] = units[keep] | units.pop(k)
+                unit_goals[keep] = np.concatenate([unit_goals[keep], unit_goals.pop(k)])
+        units, unit_goals = _merge_open_units(np.array(units), unit_goals)
+        units, unit_goals = _attach_to_way(units, unit_goals, through)
+        units, unit_goals = list(units), list(unit_goals)
+        keys = [tuple(g[0]) for g in unit_goals]
     else:
         parts = 3 * n_agents
-        units = [team_share(layout, region, k, parts) for k in range(parts)]
-        units = [unit for unit in units if unit.any()]
-        xs, ys = layout.pixel_centres()
-        keys = [(xs[np.nonzero(unit)[1]].mean(), ys[np.nonzero(unit)[0]].mean()) for unit in units]
+        units = [unit for unit in (team_share(layout, rest, k, parts) for k in range(parts)) if unit.any()]
         unit_goals = [np.zeros((0, 2)) for _ in units]
+        keys = [(xs[np.nonzero(unit)[1]].mean(), ys[np.nonzero(unit)[0]].mean()) for unit in units]
+    while len(units) < n_agents:  # more robots than units: halve the largest open unit
+        widths = [ndimage.distance_transform_edt(unit).max() for unit in units]
+        open_units = [k for k, width in enumerate(widths) if width >= OPEN_UNIT_PX]
+        if not open_units:
+            break  # pockets only: the extra robots wait
+        k = max(open_units, key=lambda j: units[j].sum())
+        first, second = _halve(units[k])
+        goals_k = unit_goals[k]
+        in_first = np.array([first[_nearest_pixel(units[k], layout, g)] for g in goals_k], dtype=bool)
+        units[k:k + 1] = [first, second]
+        unit_goals[k:k + 1] = [goals_k[in_first], goals_k[~in_first]]
+        keys[k:k + 1] = [(xs[np.nonzero(u)[1]].mean(), ys[np.nonzero(u)[0]].mean()) for u in (first, second)]
     centre_x = np.mean([key[0] for key in keys]) if keys else 0.0
     direction = 1.0 if entry[0] <= centre_x else -1.0  # the far end is the one away from the entry
     order = sorted(range(len(units)), key=lambda k: (-direction * round(keys[k][0], 2), -round(keys[k][1], 2)))
     return np.array([units[k] for k in order]).reshape(len(order), *region.shape), [unit_goals[k] for k in order]
+
+
+def _side_of_way(layout: Layout, way: np.ndarray, mask: np.ndarray) -> int:
+    """Which side of ``way`` (+1 left, -1 right, 0 on it) most of ``mask`` lies on."""
+    if len(way) < 2 or not mask.any():
+        return 0
+    xs, ys = layout.pixel_centres()
+    rows, cols = np.nonzero(mask)
+    points = np.column_stack([xs[cols], ys[rows]])
+    starts, ends = way[:-1], way[1:]
+    direction = ends - starts
+    length_sq = np.maximum((direction**2).sum(axis=1), 1e-12)
+    t = np.clip(((points[:, None, :] - starts[None]) * direction[None]).sum(axis=2) / length_sq[None], 0, 1)
+    gaps = points[:, None, :] - (starts[None] + t[..., None] * direction[None])
+    segment = np.argmin((gaps**2).sum(axis=2), axis=1)
+    picked = gaps[np.arange(len(points)), segment]
+    cross = direction[segment, 0] * picked[:, 1] - direction[segment, 1] * picked[:, 0]
+    return int(np.sign(np.sum(np.sign(cross))))
+
+
+def _voronoi(layout: Layout, piece: np.ndarray, goals: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``piece`` cut between ``goals``: every pixel joins the goal nearest along the free space."""
+    free = FreeSpace(piece)
+    nodes = np.array([free.node_id[_nearest_pixel(piece, layout, goal)] for goal in goals])
+    unique_nodes = np.unique(nodes)
+    _, _, sources = dijkstra(free.graph, directed=False, indices=unique_nodes, min_only=True, return_predecessors=True)
+    node_to_part = {int(node): k for k, node in enumerate(unique_nodes)}
+    label = np.full(piece.shape, -1)
+    label[piece] = [node_to_part.get(int(source), -1) for source in sources]
+    if (label[piece] < 0).any():
+        _, (rows, cols) = ndimage.distance_transform_edt(label < 0, return_indices=True)
+        stray = piece & (label < 0)
+        label[stray] = label[rows[stray], cols[stray]]
+    return [(label == k, goals[nodes == node]) for k, node in enumerate(unique_nodes)]
+
+
+def _halve(unit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``unit`` cut across its longer side into two parts of equal area."""
+    rows, cols = np.nonzero(unit)
+    axis = 0 if np.ptp(rows) >= np.ptp(cols) else 1
+    along = rows if axis == 0 else cols
+    cut = np.sort(along)[len(along) // 2]
+    first = unit.copy()
+    index = np.indices(unit.shape)[axis]
+    first &= index < cut
+    return first, unit & ~first
 
 
 def _nearest_pixel(region: np.ndarray, layout: Layout, point: np.ndarray) -> tuple[int, int]:
@@ -483,7 +632,7 @@ def _sweep_duration(layout: Layout, unit: np.ndarray, entry: np.ndarray) -> floa
         piece = labels == label
         if piece.sum() >= MIN_SWEEP_COMPONENT_PX:
             row, col = _nearest_pixel(piece, layout, entry)
-            total += _plan(layout, piece, np.array([xs[col], ys[row]]), None).duration
+            total += _plan(layout, piece, np.array([xs[col], ys[row]]), None, quickest=True).duration
     return total
 
 
@@ -576,13 +725,14 @@ def _robot_legs(layout: Layout, split: TeamSplit, agent: int, n_agents: int) -> 
         share = stage.sweeps[rank]
         if not share.any():
             return []
-        waypoints = _sweep_path(layout, share, position, None, drivable)
+        waypoints = _sweep_path(layout, share, position, None, drivable & ~_others(stage, rank), drivable)
         return [Leg(waypoints, -1, "sweep", None, rank * DEPARTURE_GAP)]
 
     legs: list[Leg] = []
     wait = (None, rank * DEPARTURE_GAP, False)  # the next leg starts after (cell cleared, delay, gate)
     at_cell = layout.cell_raster[layout.to_pixel(*position)]
     last_cell = len(layout.cells) - 1
+    previous = None
 
     def add(waypoints, cell, purpose):
         nonlocal wait
@@ -596,51 +746,63 @@ def _robot_legs(layout: Layout, split: TeamSplit, agent: int, n_agents: int) -> 
             continue  # nothing for this robot here: it waits where it is
         corridor = (drivable & (layout.cell_raster >= min(at_cell, cell)) & (layout.cell_raster <= cell)
                     & ~_near_bounds(layout, min(at_cell, cell) - 1) & ~_near_bounds(layout, cell))
-        corridor |= share
+        corridor |= share | (_near_points(layout, position[None], 2 * RESOLUTION) & drivable)  # where it stands
+        # transits keep to the aisle and this robot's own share where they can
+        lane = corridor & ~_others(stage, rank)
+        if previous is not None:
+            lane &= ~_others(previous, rank)
+        previous = stage
         if rank == 0 and cell > 0 and at_cell < cell:  # the leader moves the team on through the exit
             exits = layout.passages[cell - 1].exits
             exit_point = exits[np.argmin(np.hypot(*(exits - position).T))]
-            add(_transit(layout, corridor, position, exit_point), cell - 1, "exit")
+            add(_transit(layout, lane, position, exit_point, corridor), cell - 1, "exit")
             position = exit_point
         if cell == last_cell and len(goals):
             # Reaching the last goal ends the episode: hold back this robot's final goal until
             # the rest of its share is swept.
-            sweep = _sweep_path(layout, share, position, goals, corridor)
+            sweep = _sweep_path(layout, share, position, goals, lane, corridor)
             final_goal = goals[np.argmax(_first_touches(sweep, goals, layout.robot.radius))]
             keep_off = _near_points(layout, final_goal[None], layout.robot.radius + 0.02)
-            sweep = _sweep_path(layout, share & ~keep_off, position, goals, corridor & ~keep_off)
+            sweep = _sweep_path(layout, share & ~keep_off, position, goals, lane & ~keep_off, corridor & ~keep_off)
             add(sweep, cell, "sweep")
             ways = share | (keep_off & drivable) | corridor
             row, col = _nearest_pixel(ways, layout, final_goal)  # goals may sit where the disc cannot
             xs, ys = layout.pixel_centres()
             position = np.array([xs[col], ys[row]])
-            add(_transit(layout, ways, sweep[-1], position), cell, "goals")
+            add(_transit(layout, ways & (lane | share | keep_off), sweep[-1], position, ways), cell, "goals")
             # Until the team's last goal ends the episode, sweep what the hold-back left.
             spot = keep_off & drivable & (share | corridor)
             if spot[layout.to_pixel(*position)]:
-                add(_plan(layout, spot, position, None).waypoints, cell, "sweep")
+                add(_plan(layout, spot, position, None, quickest=True).waypoints, cell, "sweep")
         else:
-            sweep = _sweep_path(layout, share, position, goals, corridor)
+            sweep = _sweep_path(layout, share, position, goals, lane, corridor)
             if len(goals):
                 # Sweep up to the first touch of the last goal and wait there for the cell to
                 # clear; then back out to the staging point, clear of the aisle, and finish the
                 # sweep on the way out when this robot's turn in the convoy comes.
                 before, after = _split_at_last_goal(sweep, goals, layout.robot.radius - GOAL_TOUCH_MARGIN)
-                out, rest = _split_at_staging(after, stage.way, layout.robot.radius)
+                # the way out: the rest of the sweep, then back to the aisle
+                onto_way = _near_polyline(layout, stage.ways[0], RESOLUTION) & corridor & _cell_region(layout, cell)
+                row, col = _nearest_pixel(onto_way, layout, after[-1])
+                xs, ys = layout.pixel_centres()
+                back = _transit(layout, lane, after[-1], np.array([xs[col], ys[row]]), corridor)
+                after = np.vstack([after, back[1:]])
+                out, rest = _split_at_staging(after, stage.ways, layout.robot.radius)
                 add(before, cell, "sweep")
                 wait = (cell, 0.0, False)
                 add(out, cell, "out")
                 wait = (cell, 0.0, True)
                 add(rest, cell, "sweep")
+                position = after[-1]
             else:
                 add(sweep, cell, "sweep")
                 wait = (cell, 0.0, True)
-            position = sweep[-1]
+                position = sweep[-1]
         at_cell = cell
     return legs
 
 
-def _split_at_staging(path: np.ndarray, way: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+def _split_at_staging(path: np.ndarray, ways: list[np.ndarray], radius: float) -> tuple[np.ndarray, np.ndarray]:
     """``path`` cut where it first comes closer to the through way than a passing robot needs
     (2 radii + ``STAGING_GAP``); the first part is empty when it starts that close."""
     steps = [np.linspace(a, b, max(2, int(np.hypot(*(b - a)) / 0.02) + 1)) for a, b in zip(path[:-1], path[1:])]
@@ -648,7 +810,7 @@ def _split_at_staging(path: np.ndarray, way: np.ndarray, radius: float) -> tuple
         return path[:1], path
     clearance = 2 * radius + STAGING_GAP
     for index, dense in enumerate(steps):
-        near = _distance_to_polyline(dense, way) < clearance
+        near = np.min([_distance_to_polyline(dense, way) for way in ways], axis=0) < clearance
         if near.any():
             k = int(np.argmax(near))
             if index == 0 and k == 0:
@@ -682,8 +844,14 @@ def _split_at_last_goal(waypoints: np.ndarray, goals: np.ndarray, reach: float) 
     return np.vstack([waypoints[:k], point]), np.vstack([point, waypoints[k:]])
 
 
+def _others(stage: TeamStage, rank: int) -> np.ndarray:
+    """What the other robots of ``stage`` sweep (not the through band)."""
+    others = [sweep for k, sweep in enumerate(stage.sweeps) if k != rank]
+    return (np.any(others, axis=0) & ~stage.through) if others else np.zeros_like(stage.through)
+
+
 def _sweep_path(layout: Layout, share: np.ndarray, start: np.ndarray, goals: np.ndarray | None,
-                corridor: np.ndarray) -> np.ndarray:
+                corridor: np.ndarray, fallback: np.ndarray | None = None) -> np.ndarray:
     """One polyline (metres) from ``start`` that sweeps every piece of ``share``: the pieces
     (4-connected) nearest first, joined by A* transits through ``corridor | share``."""
     labels, count = ndimage.label(share)
@@ -693,19 +861,26 @@ def _sweep_path(layout: Layout, share: np.ndarray, start: np.ndarray, goals: np.
     path = [np.asarray(start, dtype=float)[None, :]]
     position = np.asarray(start, dtype=float)
     ways = corridor | share
+    fallback = ways if fallback is None else (fallback | share)
+    goal_pieces = set()
+    for goal in ([] if goals is None else goals):
+        goal_pieces.add(int(labels[_nearest_pixel(share, layout, goal)]))
     while remaining:
-        # the piece nearest along the free space, entered at its nearest pixel
+        # the piece nearest along the free space, entered at its nearest pixel; pieces holding
+        # goal markers last (the last goal marker is where the robot waits for its cell to clear)
         distance = _geodesic_map(layout, ways, position)
-        nearest = [float(distance[labels == label].min()) for label in remaining]
+        if not np.isfinite(distance[share]).all():  # pieces reached only through others' shares: last
+            distance = np.where(np.isfinite(distance), distance, _geodesic_map(layout, fallback, position) + 1e4)
+        nearest = [float(distance[labels == label].min()) + (1e6 if label in goal_pieces else 0.0) for label in remaining]
         label = remaining.pop(int(np.argmin(nearest)))
         piece = labels == label
         if not piece[layout.to_pixel(*position)]:
             flat = int(np.argmin(np.where(piece, distance, np.inf)))
             row, col = divmod(flat, piece.shape[1])
             entry = np.array([xs[col], ys[row]])
-            path.append(_transit(layout, ways, position, entry)[1:])
+            path.append(_transit(layout, ways, position, entry, fallback)[1:])
             position = entry
-        plan = _plan(layout, piece, position, goals)
+        plan = _plan(layout, piece, position, goals, quickest=True)
         path.append(plan.waypoints[1:])
         position = plan.waypoints[-1]
     waypoints = np.vstack(path)

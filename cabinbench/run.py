@@ -12,7 +12,8 @@ means with 95% bootstrap intervals, or with ``--json`` one JSON object with the 
 the paths written. ``--render`` draws the first episode: a PNG of its final state (trajectory
 over the map, covered area shaded: the seed's Fig. 5.11) or an animated GIF.
 
-Exit status: 0 done; 2 bad arguments (unknown baseline or layout: the valid names are printed);
+Exit status: 0 done; 2 bad arguments (unknown baseline or layout: the valid names are printed;
+more robots than the layout's start cell holds);
 130 interrupted by Ctrl-C (finished episodes are kept, and the message says where).
 """
 
@@ -34,7 +35,7 @@ from .layout import LayoutError, available_layouts, load_layout
 from .metrics import METRICS, TEAM_METRICS
 from .records import RunWriter, run_header, run_path
 from .stats import Summary, summarize
-from .world import PROTOCOLS
+from .world import PROTOCOLS, start_poses
 
 GIF_FRAMES = 100  # frames spread over the step limit; the GIF stops early if the episode does
 GIF_FRAME_MS = 80
@@ -122,6 +123,11 @@ def main(argv: list[str] | None = None) -> int:
         layout = load_layout(args.layout)
     except LayoutError as error:
         print(f"error: {error}\nvalid layouts: {', '.join(available_layouts())}", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        start_poses(layout, args.agents)  # a team too large for the start cell: refuse before writing anything
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
     try:
         baseline = load_baseline(args.baseline, **args.config)
