@@ -15,7 +15,8 @@ one record per episode. Definitions (areas are counted on the 0.05 m raster):
   in [0, 1] for an episode that stops early;
 - ``time``: simulated seconds; ``steps``: env steps;
 - ``t90``, ``t95``, ``t99``: simulated seconds to reach that coverage (None if never);
-- ``collisions``: contact events with obstacles; ``robot_collisions``: with other robots;
+- ``collisions``: contact events with obstacles; ``robot_collisions``: between two robots (each
+  contact counted once, though both robots feel it);
 - ``bound_violations``: contacts with the bounds of the sequential protocol;
 - ``rotation``: total absolute heading change (radians);
 - ``overlap``: Σ over covered pixels of (passes − 1) / covered pixels, a pass being one entry of
@@ -78,8 +79,9 @@ class EpisodeTracker:
                 self.last_move_step[index] = self.steps
             self.rotation += robot.rotation
             self.collisions += robot.collisions
-            self.robot_collisions += robot.robot_collisions
             self.bound_violations += robot.bound_violations
+        # every robot-robot contact is reported to both robots
+        self.robot_collisions += sum(robot.robot_collisions for robot in events.robots) // 2
         self.positions.append(self.world.poses[:, :2].copy())
         self.coverage_history.append(self.world.coverage)
         self._note_thresholds()
