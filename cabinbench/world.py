@@ -50,6 +50,7 @@ class StepEvents:
     robots: list[RobotEvents]
     cells_cleared: int = 0  # cells cleared during this step (team)
     success: bool = False  # the layout's success criterion holds after this step
+    abandoned_pixels: int = 0  # sequential: coverable pixels left uncovered in a cell the team left for good
 
     @property
     def team_new_coverable_pixels(self) -> int:
@@ -157,7 +158,7 @@ class World:
         for bounds in self.bound_slices:
             self.segment_on[bounds] = False  # bounds start open; the sequential protocol closes them
         self.passage_open = np.zeros(len(layout.passages), dtype=bool)
-        self.passage_closing = -1
+        self.passages_closing: list[int] = []  # passed by the team's leader; each closes once all are through
         self.success = False
         if self.protocol == "open":
             self.passage_open[:] = True
@@ -228,12 +229,12 @@ class World:
         """Advance one env step. ``actions`` is (K, 2) in [-1, 1]: (linear, angular)."""
         robot = self.layout.robot
         before = self.poses
-        for (x, y, heading), motor, (linear, angular) in zip(before, self.motors, actions):
-            speed, turn_rate = float(linear) * robot.max_speed, float(angular) * robot.max_turn_rate
+        for (x, y, heading), motor, (linear, angular) in zip(before.tolist(), self.motors, actions.tolist()):
+            speed, turn_rate = linear * robot.max_speed, angular * robot.max_turn_rate
             # Aim at the mid-step heading: the straight chord of the arc that driving while turning
-            # traces, so one velocity per step is exact and the substeps need no Python.
+            # traces, so one velocity per step is exact and the substeps need no Python. Only the
+            # motor's velocities matter: with max_bias 0 its joints never pull towards its pose.
             aim = heading + turn_rate * TIME_STEP / 2
-            motor.position = (x, y)  # the motor leads from where the robot is, not where it was pushed
             motor.velocity = (speed * math.cos(aim), speed * math.sin(aim))
             motor.angular_velocity = turn_rate
         substep = TIME_STEP / PHYSICS_SUBSTEPS
@@ -283,6 +284,8 @@ class World:
         if self.protocol == "sequential":
             self._advance_through_exits(events, poses, reach)
             self.success = bool(self.cell_cleared.all())
+            if self.success:  # the episode ends in the current cell
+                events.abandoned_pixels += self._uncovered_pixels(self.current_cell)
         else:
             self.success = self.coverage >= self.layout.success_coverage
         events.success = self.success
@@ -307,17 +310,25 @@ class World:
             if markers_reached(self.circles, self.circle_on, self.n_goals, self.n_exits, poses, reach, self._marker_hits):
                 robot = int(self._marker_hits[: self.n_exits][self._marker_hits[: self.n_exits] >= 0][0])
                 events.robots[robot].exits_reached += 1
+                events.abandoned_pixels += self._uncovered_pixels(passage)  # no way back once the bound closes
                 self.current_cell += 1
                 self.passage_open[passage] = False  # exits vanish; the bound closes once all are through
-                self.passage_closing = passage
-        positions = poses[:, :2]
-        if self.passage_closing >= 0 and self._all_through(self.passage_closing, positions):
-            self._set_bound(self.passage_closing, solid=True)
-            self.passage_closing = -1
+                self.passages_closing.append(passage)
+        if self.passages_closing:
+            positions = poses[:, :2]
+            for closing in [p for p in self.passages_closing if self._all_through(p, positions)]:
+                self._set_bound(closing, solid=True)
+                self.passages_closing.remove(closing)
+
+    def _uncovered_pixels(self, cell: int) -> int:
+        """Coverable pixels of ``cell`` not yet covered; 0 for the cells the layout starts cleared."""
+        if cell < self.layout.cleared_cells:
+            return 0
+        return int(self.coverable_by_cell[cell] - self.covered_by_cell[cell])
 
     def _all_through(self, passage: int, positions: np.ndarray) -> bool:
         cells = [self.cell_of[self.layout.to_pixel(x, y)] for x, y in positions]
-        if any(cell != passage + 1 for cell in cells):
+        if any(cell <= passage for cell in cells):  # cells are numbered along the cabin; -1 is no cell
             return False
         bounds = self.layout.passages[passage].bounds
         return all(_distance_to_segments(position, bounds) > self._radius + 0.01 for position in positions)

@@ -89,3 +89,39 @@ def test_open_protocol_succeeds_on_coverage():
     assert env.layout.success_coverage == 0.98
     assert not env.world.success
     assert np.isclose(env.world.coverage, env.world.covered_coverable_pixels / env.world.coverable_pixels)
+
+
+def test_coverage_reward_charges_the_area_left_behind():
+    """Clearing the last cell by its goal markers alone ends the episode with most of the floor
+    dirty: the coverage preset charges that area (what covering it would have paid)."""
+    env = CoverageEnv("a320_cell", reward="coverage")
+    env.reset(seed=0)
+    rewards, terminated = [], False
+    waypoints = iter(goal_tour(env.layout, 0))
+    target = next(waypoints)
+    while not terminated:
+        action, arrived = action_towards(env.world.poses[0], target)
+        if arrived:
+            target = next(waypoints)
+            continue
+        _, step_reward, terminated, _, info = env.step(action)
+        rewards.append(step_reward)
+    left = 1.0 - info["coverage"]
+    assert left > 0.3
+    assert rewards[-1] < -10.0 * left + 1.1  # the +1 for the clearing cannot pay for it
+    assert max(rewards[:-1]) < 0.5  # no other step is charged or paid anything like it
+
+
+def test_leaving_a_cell_the_layout_starts_cleared_costs_nothing():
+    env = CoverageEnv("a320_tracking_cell", reward="coverage")
+    env.reset(seed=0)
+    exit_point = env.layout.passages[0].exits[0]
+    rewards, waypoints = [], iter([(exit_point[0] - 0.3, exit_point[1]), tuple(exit_point)])
+    target = next(waypoints)
+    while env.world.current_cell == 0:
+        action, arrived = action_towards(env.world.poses[0], target)
+        if arrived:
+            target = next(waypoints)
+            continue
+        rewards.append(env.step(action)[1])
+    assert rewards[-1] > 0.4  # the exit's +0.5, nothing charged for cell 0
