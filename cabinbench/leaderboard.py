@@ -1,6 +1,6 @@
 """Regenerate the leaderboard from the per-episode records: ``python -m cabinbench.leaderboard``.
 
-    python -m cabinbench.leaderboard [--runs results/runs] [--out results]
+    python -m cabinbench.leaderboard [--runs results/runs] [--training results/training] [--out results]
 
 Reads every ``*.jsonl`` in ``--runs`` (and the ``.npz`` beside each, see :mod:`cabinbench.records`)
 and writes, from those files only:
@@ -16,7 +16,11 @@ and writes, from those files only:
   Fig. 5.11); ``coverage_time__<layout>.png``: coverage over simulated time, one line per
   baseline (median over episodes, interquartile band); ``bars_coverage.png`` and
   ``bars_time.png``: means with 95% interval error bars, grouped by layout;
-  ``makespan_agents.png``: team makespan against the number of robots (when several K were run).
+  ``makespan_agents.png``: team makespan against the number of robots, one panel per layout, for the
+  settings run with several K whose episodes all succeeded (a makespan cut short by the step limit
+  measures the limit, not the team), with the ideal T(1)/K and each K's speed-up T(1)/T(K);
+  ``training__<baseline>.png``: the training curves (the seed's Fig. 5.8) of each shipped learned
+  policy, from the ``metrics.csv`` that ``python -m cabinbench.train --ship`` keeps in ``--training``.
 
 Exits 1 when there are no records.
 """
@@ -24,6 +28,7 @@ Exits 1 when there are no records.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from functools import lru_cache
 from pathlib import Path
@@ -252,30 +257,53 @@ def bar_figure(rows: list[dict], metric: str, ylabel: str, colours: dict, path: 
 
 
 def makespan_figure(groups: list[tuple[dict, pd.DataFrame]], path: Path) -> bool:
-    """Team makespan (a single robot's: its episode time) against the number of robots, per
-    (layout, baseline, protocol) that was run with several K. False when there is nothing to draw."""
+    """Team makespan (a single robot's: its episode time) against the number of robots K, one panel
+    per layout, one line per (baseline, protocol) run with several K and successful in every episode;
+    dashed: the ideal T(1)/K; each point is labelled with its speed-up T(1)/T(K). False when there is
+    nothing to draw."""
     series: dict[tuple, list[tuple[int, Summary]]] = {}
     for key, episodes in groups:
         values = episodes["makespan"] if key["n_agents"] > 1 else episodes["time"]
-        series.setdefault((key["layout"], key["baseline"], key["protocol"]), []).append((key["n_agents"], mean_ci(values)))
-    series = {name: sorted(points) for name, points in series.items() if len(points) > 1}
+        series.setdefault((key["layout"], key["baseline"], key["protocol"]), []).append(
+            (key["n_agents"], mean_ci(values), bool(episodes["success"].all())))
+    series = {name: sorted(points, key=lambda point: point[0]) for name, points in series.items()
+              if len(points) > 1 and all(success for *_, success in points) and points[0][0] == 1}
     if not series:
         return False
-    figure = Figure(figsize=(6.4, 4.0))
-    axes = figure.subplots()
-    for (layout, baseline, protocol), points in sorted(series.items()):
-        agents = [k for k, _ in points]
-        means = np.array([summary.mean for _, summary in points])
-        errors = np.nan_to_num(np.array([[s.mean - s.low, s.high - s.mean] for _, s in points]).T)
-        axes.errorbar(agents, means, yerr=errors, marker="o", capsize=3, label=f"{layout} / {baseline} / {protocol}")
-    axes.set_xlabel("robots (K)")
-    axes.set_ylabel("makespan (simulated s)")
-    axes.set_xticks(sorted({k for points in series.values() for k, _ in points}))
-    axes.set_title("makespan against team size: mean and 95% bootstrap interval", fontsize=10)
-    axes.legend(fontsize=7)
-    axes.grid(alpha=0.3)
+    layouts = sorted({layout for layout, *_ in series})
+    figure = Figure(figsize=(5.0 * len(layouts), 4.0))
+    for axes, layout in zip(np.atleast_1d(figure.subplots(1, len(layouts))), layouts):
+        for (_, baseline, protocol), points in sorted(item for item in series.items() if item[0][0] == layout):
+            agents = np.array([k for k, *_ in points])
+            means = np.array([summary.mean for _, summary, _ in points])
+            errors = np.nan_to_num(np.array([[s.mean - s.low, s.high - s.mean] for _, s, _ in points]).T)
+            line = axes.errorbar(agents, means, yerr=errors, marker="o", capsize=3, label=f"{baseline} / {protocol}")
+            axes.plot(agents, means[0] / agents, linestyle="--", color=line[0].get_color(), alpha=0.5)
+            for k, mean in zip(agents[1:], means[1:]):
+                axes.annotate(f"×{means[0] / mean:.2f}", (k, mean), textcoords="offset points", xytext=(6, 4), fontsize=7)
+        axes.set_xlabel("robots (K)")
+        axes.set_ylabel("makespan (simulated s)")
+        axes.set_xticks(sorted({k for name, points in series.items() if name[0] == layout for k, *_ in points}))
+        axes.set_ylim(bottom=0)
+        axes.set_title(f"{layout}: mean, 95% interval; dashed: T(1)/K", fontsize=10)
+        axes.legend(fontsize=7)
+        axes.grid(alpha=0.3)
     save_figure(figure, path)
     return True
+
+
+def training_figures(training: Path, folder: Path) -> list[Path]:
+    """``training__<baseline>.png`` for every ``<training>/<baseline>/metrics.csv``."""
+    from baselines.ppo_gail.training import plot_curves, read_metrics
+
+    written = []
+    for metrics in sorted(training.glob("*/metrics.csv")):
+        config = json.loads((metrics.parent / "config.json").read_text(encoding="utf-8"))
+        path = folder / f"training__{safe_name(metrics.parent.name)}.png"
+        plot_curves(read_metrics(metrics), path, title=f"{config['ablation']} on {' + '.join(config['layouts'])}, "
+                                                       f"seed {config['seed']}: training curves")
+        written.append(path)
+    return written
 
 
 def write_figures(groups: list[tuple[dict, pd.DataFrame]], rows: list[dict], folder: Path) -> list[Path]:
@@ -304,6 +332,7 @@ def write_figures(groups: list[tuple[dict, pd.DataFrame]], rows: list[dict], fol
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m cabinbench.leaderboard", description="Regenerate the leaderboard tables and figures from the per-episode records.")
     parser.add_argument("--runs", default="results/runs", help="folder of run records (default results/runs)")
+    parser.add_argument("--training", default="results/training", help="folder of shipped training records (default results/training)")
     parser.add_argument("--out", default="results", help="folder for leaderboard.{md,csv} and figures/ (default results)")
     args = parser.parse_args(argv)
     records = read_records(args.runs) if Path(args.runs).is_dir() else pd.DataFrame()
@@ -321,7 +350,7 @@ def main(argv: list[str] | None = None) -> int:
     command = f"python -m cabinbench.leaderboard --runs {args.runs} --out {args.out}"
     (out / "leaderboard.md").write_text(markdown(rows, records, args.runs, command, notes), encoding="utf-8")
     csv_table(rows).to_csv(out / "leaderboard.csv", index=False, float_format="%.6g", lineterminator="\n")
-    figures = write_figures(groups, rows, out / "figures")
+    figures = write_figures(groups, rows, out / "figures") + training_figures(Path(args.training), out / "figures")
     print(f"{len(rows)} rows from {len(records)} episodes: {out / 'leaderboard.md'}, {out / 'leaderboard.csv'}, "
           f"{len(figures)} figures in {out / 'figures'}")
     return 0

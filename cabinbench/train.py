@@ -13,7 +13,8 @@ configuration; with ``--layout`` repeated, one policy trains on all of them, by 
 demonstrations, checkpoints, ``metrics.csv``, ``curves.png`` and the exported ``policy.pt``. ``--resume`` continues
 an interrupted run from its latest checkpoint, with the saved config (``--iterations`` may raise the total).
 ``--ship`` copies the exported policy to ``baselines/ppo_gail/checkpoints/<baseline>.pt``, where
-``python -m cabinbench.run --baseline <baseline>`` finds it.
+``python -m cabinbench.run --baseline <baseline>`` finds it, and the run's ``config.json`` and ``metrics.csv`` to
+``results/training/<baseline>/``, from which ``python -m cabinbench.leaderboard`` draws the committed training curves.
 
 Exit status: 0 done; 2 bad arguments (an unknown baseline: the valid ones are printed) or a run directory that
 cannot be used as asked; 130 interrupted by Ctrl-C (finished checkpoints are kept; resume with ``--resume``).
@@ -30,6 +31,7 @@ from pathlib import Path
 
 EXIT_USAGE, EXIT_INTERRUPTED = 2, 130
 TRAINABLE = ("ppo_gail", "ppo", "ppo_icm", "ppo_gail_only")  # = baselines.ppo_gail.algorithm.ABLATIONS
+TRAINING_RECORDS = Path("results/training")  # what --ship keeps of a run for the committed curves
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
@@ -126,7 +128,11 @@ def main(argv: list[str] | None = None) -> int:
         temporary = shipped.with_name(shipped.name + ".tmp")
         shutil.copyfile(result.policy_path, temporary)
         os.replace(temporary, shipped)
-        print(f"shipped: {shipped}")
+        records = TRAINING_RECORDS / config.ablation
+        records.mkdir(parents=True, exist_ok=True)
+        for name in ("config.json", "metrics.csv"):
+            shutil.copyfile(result.run_dir / name, records / name)
+        print(f"shipped: {shipped}; training records: {records}")
     return 0
 
 

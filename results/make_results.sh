@@ -15,13 +15,13 @@ for layout in a320_cell shape_changed b777_3col full_cabin; do
   done
 done
 
-# Teams: K = 1, 2, 4 on the two large layouts (K = 1 is recorded above).
+# Teams: K = 1, 2, 4 on the two large layouts (K = 1 is recorded above); the planner in both protocols.
+team_run() { for seed in 0 100; do python -m cabinbench.run --episodes 5 --seed "$seed" --out results/runs "$@" > /dev/null; done; }
 for layout in full_cabin b777_3col; do
   for agents in 2 4; do
-    for baseline in random_bounce boustrophedon; do
-      for seed in 0 100; do
-        python -m cabinbench.run --episodes 5 --seed "$seed" --agents "$agents" --baseline "$baseline" --layout "$layout" --out results/runs > /dev/null
-      done
+    team_run --agents "$agents" --baseline random_bounce --layout "$layout" --protocol sequential
+    for protocol in sequential open; do
+      team_run --agents "$agents" --baseline boustrophedon --layout "$layout" --protocol "$protocol"
     done
   done
 done
