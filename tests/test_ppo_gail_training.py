@@ -219,3 +219,22 @@ def test_shipped_policy_loads_and_acts(name):
     baseline.reset(EpisodeContext(layout, "sequential", 0), observation, {})
     action = baseline.act(observation, {})
     assert action.shape == (2,) and np.all(np.abs(action) <= 1.0)
+
+
+def test_ship_installs_the_policy_and_keeps_its_training_records(tmp_path, monkeypatch):
+    """``train --ship``: the policy lands where ``run --baseline`` finds it, and the run's config and metrics land in
+    results/training/, from which the leaderboard draws the committed training curve."""
+    from baselines.ppo_gail import policy
+    from cabinbench import leaderboard
+    from cabinbench.train import main as train_main
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(policy, "CHECKPOINT_DIR", tmp_path / "checkpoints")
+    status = train_main(["--baseline", "ppo", "--layout", "a320_cell", "--iterations", "2", "--num-envs", "4",
+                         "--steps-per-env", "8", "--max-steps", "20", "--run-dir", "run", "--ship", "--no-progress"])
+    assert status == 0
+    assert read_policy_file(tmp_path / "checkpoints" / "ppo.pt")["ablation"] == "ppo"
+    records = tmp_path / "results" / "training" / "ppo"
+    assert len(training.read_metrics(records / "metrics.csv")) == 2
+    figures = leaderboard.training_figures(tmp_path / "results" / "training", tmp_path)
+    assert [path.name for path in figures] == ["training__ppo.png"] and figures[0].stat().st_size > 10_000
