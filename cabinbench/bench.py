@@ -5,7 +5,7 @@ Measures:
 - single-env steps/s of ``CabinBench/Coverage-v0`` (64 rays, random actions, resets included) on
   ``a320_cell`` and ``full_cabin``, pinned to one core;
 - the batched training env's agent-steps/s (env stepping alone, random actions), on one core and
-  with one worker process per core of the machine;
+  with ``num_workers`` = the machine's cores (this process steps one shard, a worker each other);
 - the boustrophedon planner's time to plan ``full_cabin``;
 - peers stepped in the same run, so ratios survive machine drift: PettingZoo's Pistonball
   (pymunk physics, like ours; needs pygame) and Gymnasium's CartPole (pure-Python physics, a

@@ -32,6 +32,7 @@ until the last robot made its last move) and ``load_balance`` (max / mean path l
 
 from __future__ import annotations
 
+import array
 import time as clock
 
 import numpy as np
@@ -67,12 +68,13 @@ class EpisodeTracker:
         self.collisions = self.robot_collisions = self.bound_violations = 0
         self.initial_coverable_pixels = world.covered_coverable_pixels
         self.threshold_times: dict[float, float | None] = {t: None for t in COVERAGE_THRESHOLDS}
-        self.positions = [world.poses[:, :2].copy()]
-        self.coverage_history = [world.coverage]
+        self._unreached_thresholds = list(COVERAGE_THRESHOLDS)  # ascending; coverage never drops
+        self._poses = array.array("d", world.poses.tobytes())  # every step's poses, flat: compact for long episodes
         self._note_thresholds()
 
     def update(self, events: StepEvents) -> None:
         self.steps += 1
+        robot_contacts = 0
         for index, robot in enumerate(events.robots):
             self.path_lengths[index] += robot.distance
             if robot.distance > 1e-4 or robot.rotation > 1e-4:
@@ -80,16 +82,15 @@ class EpisodeTracker:
             self.rotation += robot.rotation
             self.collisions += robot.collisions
             self.bound_violations += robot.bound_violations
-        # every robot-robot contact is reported to both robots
-        self.robot_collisions += sum(robot.robot_collisions for robot in events.robots) // 2
-        self.positions.append(self.world.poses[:, :2].copy())
-        self.coverage_history.append(self.world.coverage)
+            robot_contacts += robot.robot_collisions
+        self.robot_collisions += robot_contacts // 2  # every robot-robot contact is reported to both robots
+        self._poses.frombytes(self.world.poses.tobytes())
         self._note_thresholds()
 
     def _note_thresholds(self) -> None:
-        for threshold, reached in self.threshold_times.items():
-            if reached is None and self.world.coverage >= threshold:
-                self.threshold_times[threshold] = self.steps * TIME_STEP
+        coverage = self.world.coverage
+        while self._unreached_thresholds and coverage >= self._unreached_thresholds[0]:
+            self.threshold_times[self._unreached_thresholds.pop(0)] = self.steps * TIME_STEP
 
     @property
     def path_length(self) -> float:
@@ -148,4 +149,4 @@ class EpisodeTracker:
 
     def trajectory(self) -> np.ndarray:
         """(steps + 1, K, 2) robot positions."""
-        return np.array(self.positions)
+        return np.frombuffer(self._poses).reshape(-1, self.world.n_robots, 3)[:, :, :2].copy()

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import pymunk
 from numba import njit
+from pymunk._chipmunk import lib as chipmunk
 
 from .coverage import stamp_footprint
 from .layout import MARKER_RADIUS, RESOLUTION, Layout
@@ -31,7 +32,7 @@ PROTOCOLS = ("sequential", "open")
 _ROBOT_TYPE, _WALL_TYPE, _BOUND_TYPE = 1, 2, 3
 
 
-@dataclass
+@dataclass(slots=True)
 class RobotEvents:
     """What happened to one robot during one step."""
 
@@ -45,7 +46,7 @@ class RobotEvents:
     rotation: float = 0.0
 
 
-@dataclass
+@dataclass(slots=True)
 class StepEvents:
     robots: list[RobotEvents]
     cells_cleared: int = 0  # cells cleared during this step (team)
@@ -100,8 +101,7 @@ class World:
         self.coverable_pixels = int(self.coverable_mask.sum())
         self.cell_has_goals = np.bincount(self.goal_cell, minlength=len(layout.cells)) > 0
         self._marker_hits = np.full(max(self.n_goals, self.n_exits, 1), -1, dtype=np.int64)
-        self._distances = np.zeros(lidar.n_rays)
-        self._tags = np.zeros(lidar.n_rays, dtype=np.int8)
+        self._no_noise = np.zeros(0)
 
     # ------------------------------------------------------------------------------ reset
     def reset(self, rng: np.random.Generator) -> None:
@@ -142,6 +142,7 @@ class World:
             space.add(body, shape, motor, drive, steer)
             self.bodies.append(body)
             self.motors.append(motor)
+        self._physics = _ChipmunkCalls(space, self.bodies, self.motors)
         self._read_poses()
         space.on_collision(_ROBOT_TYPE, _WALL_TYPE, begin=self._on_wall_contact)
         space.on_collision(_ROBOT_TYPE, _BOUND_TYPE, begin=self._on_bound_contact)
@@ -175,11 +176,10 @@ class World:
         self.covered_by_cell = np.zeros(len(layout.cells), dtype=np.int64)
         self.covered_floor_pixels = 0
         self.covered_coverable_pixels = 0
-        self.previous_positions = np.full((self.n_robots, 2), np.nan)
         self.velocities = np.zeros((self.n_robots, 2))  # (forward m/s, turn rad/s) commanded and achieved
         self._pending = [RobotEvents() for _ in range(self.n_robots)]
-        for index in range(self.n_robots):
-            self._stamp(index)  # the start footprint is covered, but earns no step's reward
+        for x, y, _ in self._poses.tolist():
+            self._stamp(x, y, math.nan, math.nan)  # the start footprint is covered, but earns no step's reward
 
     def _set_bound(self, passage: int, solid: bool) -> None:
         """Close (solid) or open a passage's bounds, in physics and for the lidar alike."""
@@ -212,9 +212,10 @@ class World:
         """(K, 3) x, y, heading of every robot, as of the last reset or step."""
         return self._poses
 
-    def _read_poses(self) -> np.ndarray:
-        self._poses = np.array([(*b.position, b.angle) for b in self.bodies])
-        return self._poses
+    def _read_poses(self) -> list[tuple[float, float, float]]:
+        poses = self._physics.poses()
+        self._poses = np.array(poses)
+        return poses
 
     @property
     def coverage(self) -> float:
@@ -228,42 +229,38 @@ class World:
     def step(self, actions: np.ndarray) -> StepEvents:
         """Advance one env step. ``actions`` is (K, 2) in [-1, 1]: (linear, angular)."""
         robot = self.layout.robot
-        before = self.poses
-        for (x, y, heading), motor, (linear, angular) in zip(before.tolist(), self.motors, actions.tolist()):
+        before = self._poses.tolist()
+        for index, ((x, y, heading), (linear, angular)) in enumerate(zip(before, actions.tolist())):
             speed, turn_rate = linear * robot.max_speed, angular * robot.max_turn_rate
             # Aim at the mid-step heading: the straight chord of the arc that driving while turning
             # traces, so one velocity per step is exact and the substeps need no Python. Only the
             # motor's velocities matter: with max_bias 0 its joints never pull towards its pose.
             aim = heading + turn_rate * TIME_STEP / 2
-            motor.velocity = (speed * math.cos(aim), speed * math.sin(aim))
-            motor.angular_velocity = turn_rate
-        substep = TIME_STEP / PHYSICS_SUBSTEPS
-        for _ in range(PHYSICS_SUBSTEPS):
-            self.space.step(substep)
+            self._physics.drive(index, (speed * math.cos(aim), speed * math.sin(aim)), turn_rate)
+        self._physics.step(TIME_STEP / PHYSICS_SUBSTEPS, PHYSICS_SUBSTEPS)
         after = self._read_poses()
         events = self._pending
         self._pending = [RobotEvents() for _ in range(self.n_robots)]
-        for index, ((x0, y0, heading), (x1, y1, heading1)) in enumerate(zip(before.tolist(), after.tolist())):
+        for index, ((x0, y0, heading), (x1, y1, heading1)) in enumerate(zip(before, after)):
             turned = _wrap(heading1 - heading)
-            events[index].distance = math.hypot(x1 - x0, y1 - y0)
-            events[index].rotation = abs(turned)
+            robot_events = events[index]
+            robot_events.distance = math.hypot(x1 - x0, y1 - y0)
+            robot_events.rotation = abs(turned)
             self.velocities[index] = (
                 ((x1 - x0) * math.cos(heading) + (y1 - y0) * math.sin(heading)) / TIME_STEP,
                 turned / TIME_STEP,
             )
-            events[index].new_coverable_pixels += self._stamp(index)
+            robot_events.new_coverable_pixels += self._stamp(x1, y1, x0, y0)
         step_events = StepEvents(events)
-        self._update_protocol(step_events, after)
+        self._update_protocol(step_events, self._poses)
         return step_events
 
-    def _stamp(self, index: int) -> int:
-        x, y = self._poses[index, :2]
-        previous_x, previous_y = self.previous_positions[index]
+    def _stamp(self, x: float, y: float, previous_x: float, previous_y: float) -> int:
+        """Cover a robot's footprint at (x, y), coming from the previous pose (NaN: none)."""
         origin_x, origin_y = self.layout.origin
         new_floor, new_coverable = stamp_footprint(
             self.pass_count, self.floor_mask, self.coverable_mask, self.cell_of, self.covered_by_cell,
             x, y, previous_x, previous_y, self._radius, origin_x, origin_y, RESOLUTION)
-        self.previous_positions[index] = (x, y)
         self.covered_floor_pixels += new_floor
         self.covered_coverable_pixels += new_coverable
         return new_coverable
@@ -281,15 +278,16 @@ class World:
                 if self.protocol == "sequential" and cell < len(self.layout.passages):
                     self._set_bound(cell, solid=False)
                     self.passage_open[cell] = True
+        exit_reached = False
         if self.protocol == "sequential":
-            self._advance_through_exits(events, poses, reach)
-            self.success = bool(self.cell_cleared.all())
+            exit_reached = self._advance_through_exits(events, poses, reach)
+            self.success = all(self.cell_cleared.tolist())  # numpy's .all() costs a microsecond, even on a few cells
             if self.success:  # the episode ends in the current cell
                 events.abandoned_pixels += self._uncovered_pixels(self.current_cell)
         else:
             self.success = self.coverage >= self.layout.success_coverage
         events.success = self.success
-        if any(r.goals_reached or r.exits_reached for r in events.robots) or events.cells_cleared:
+        if goals_hit or exit_reached or events.cells_cleared:
             self._refresh_markers()
 
     def _cells_to_check(self, goals_changed: bool) -> list[int]:
@@ -303,7 +301,10 @@ class World:
             return bool(self.goal_reached[self.goal_cell == cell].all())
         return self.covered_by_cell[cell] >= self.layout.success_coverage * self.coverable_by_cell[cell]
 
-    def _advance_through_exits(self, events: StepEvents, poses: np.ndarray, reach: float) -> None:
+    def _advance_through_exits(self, events: StepEvents, poses: np.ndarray, reach: float) -> bool:
+        """Move the team on when a robot reaches an exit; close the bounds all robots passed.
+        Returns whether an exit was reached."""
+        exit_reached = False
         passage = self.current_cell
         if passage < len(self.layout.passages) and self.passage_open[passage]:
             # only the open passage's exits are shown, so any hit is one of them
@@ -314,11 +315,13 @@ class World:
                 self.current_cell += 1
                 self.passage_open[passage] = False  # exits vanish; the bound closes once all are through
                 self.passages_closing.append(passage)
+                exit_reached = True
         if self.passages_closing:
             positions = poses[:, :2]
             for closing in [p for p in self.passages_closing if self._all_through(p, positions)]:
                 self._set_bound(closing, solid=True)
                 self.passages_closing.remove(closing)
+        return exit_reached
 
     def _uncovered_pixels(self, cell: int) -> int:
         """Coverable pixels of ``cell`` not yet covered; 0 for the cells the layout starts cleared."""
@@ -349,25 +352,70 @@ class World:
             exits = np.zeros(self.n_exits, dtype=bool)
         self.circle_on = np.concatenate([goals, exits, np.ones(self.n_robots, dtype=bool)])
 
-    def observe(self, index: int) -> np.ndarray:
+    def observe(self, index: int, out: np.ndarray | None = None) -> np.ndarray:
         """Local observation of robot ``index``: per ray [distance / range, one-hot tag] then
-        [forward speed / max_speed, turn rate / max_turn_rate], clipped to [-1, 1]."""
-        poses = self.poses
-        self.circles[self.n_goals + self.n_exits:, :2] = poses[:, :2]
-        circle_on = self.circle_on  # the robot's own disc contains the ray origin: the kernel skips it
-        x, y, heading = poses[index]
-        cast_rays(x, y, heading, self.ray_angles, self.lidar.max_range, self.segments, self.segment_tags,
-                  self.segment_on, self.circles, self.circle_tags, circle_on, self._distances, self._tags)
-        if self.lidar.noise > 0:
-            noisy = self._distances + self.rng.normal(0.0, self.lidar.noise, self.lidar.n_rays)
-            np.clip(noisy, 0.0, self.lidar.max_range, out=self._distances)
-        observation = np.empty(self.observation_size, dtype=np.float32)
-        encode_scan(self._distances, self._tags, self.lidar.max_range, observation)
-        robot = self.layout.robot
-        # contacts can push a robot a little faster than commanded: keep the entries in [-1, 1]
-        observation[-2] = min(1.0, max(-1.0, self.velocities[index, 0] / robot.max_speed))
-        observation[-1] = min(1.0, max(-1.0, self.velocities[index, 1] / robot.max_turn_rate))
-        return observation
+        [forward speed / max_speed, turn rate / max_turn_rate], clipped to [-1, 1]. Written into
+        ``out`` (float32, ``observation_size``) when given, else into a new array."""
+        if out is None:
+            out = np.empty(self.observation_size, dtype=np.float32)
+        lidar, robot = self.lidar, self.layout.robot
+        # drawn before the cast, which draws nothing: the same numbers as drawing after it
+        noise = self.rng.normal(0.0, lidar.noise, lidar.n_rays) if lidar.noise > 0 else self._no_noise
+        write_observation(out, index, self._poses, self.velocities, robot.max_speed, robot.max_turn_rate,
+                          self.ray_angles, lidar.max_range, self.segments, self.segment_tags, self.segment_on,
+                          self.circles, self.circle_tags, self.circle_on, noise)
+        return out
+
+
+@njit(cache=True)
+def write_observation(out, index, poses, velocities, max_speed, max_turn_rate, ray_angles, max_range,
+                      segments, segment_tags, segment_on, circles, circle_tags, circle_on, noise):
+    """:meth:`World.observe` in one compiled call: the scan of robot ``index`` (its own disc
+    contains the ray origin, so the cast skips it), its range ``noise`` (empty: none), then the
+    velocities."""
+    first_robot = circles.shape[0] - poses.shape[0]  # the last discs are the robots: place them
+    for robot in range(poses.shape[0]):
+        circles[first_robot + robot, 0], circles[first_robot + robot, 1] = poses[robot, 0], poses[robot, 1]
+    n_rays = ray_angles.shape[0]
+    distances, tags = np.empty(n_rays), np.empty(n_rays, dtype=np.int8)
+    cast_rays(poses[index, 0], poses[index, 1], poses[index, 2], ray_angles, max_range, segments, segment_tags,
+              segment_on, circles, circle_tags, circle_on, distances, tags)
+    if noise.shape[0] > 0:
+        for r in range(n_rays):
+            distances[r] = min(max(distances[r] + noise[r], 0.0), max_range)
+    encode_scan(distances, tags, max_range, out)
+    # contacts can push a robot a little faster than commanded: keep the entries in [-1, 1]
+    out[-2] = min(1.0, max(-1.0, velocities[index, 0] / max_speed))
+    out[-1] = min(1.0, max(-1.0, velocities[index, 1] / max_turn_rate))
+
+
+class _ChipmunkCalls:
+    """The per-step calls into Chipmunk, made through pymunk's C bindings (``pymunk._chipmunk``, an
+    internal module): pymunk's Python wrappers around them (Space.step's bookkeeping for changes
+    made during a step, Vec2d results, attribute hooks) cost more than the physics of these small
+    scenes, about a fifth of a training step. That bookkeeping is not needed here: nothing is
+    added to or removed from the space during a step, and no post-step callback is used."""
+
+    def __init__(self, space: pymunk.Space, bodies: list[pymunk.Body], motors: list[pymunk.Body]):
+        self.pymunk_objects = (space, bodies, motors)  # they own the C objects; pickled instead of pointers
+        self.space = space._space
+        self.bodies = [body._body for body in bodies]
+        self.motors = [motor._body for motor in motors]
+
+    def __reduce__(self):
+        return _ChipmunkCalls, self.pymunk_objects
+
+    def drive(self, robot: int, velocity: tuple[float, float], angular_velocity: float) -> None:
+        chipmunk.cpBodySetVelocity(self.motors[robot], velocity)
+        chipmunk.cpBodySetAngularVelocity(self.motors[robot], angular_velocity)
+
+    def step(self, dt: float, substeps: int) -> None:
+        for _ in range(substeps):
+            chipmunk.cpSpaceStep(self.space, dt)
+
+    def poses(self) -> list[tuple[float, float, float]]:
+        positions = [chipmunk.cpBodyGetPosition(body) for body in self.bodies]
+        return [(p.x, p.y, chipmunk.cpBodyGetAngle(body)) for p, body in zip(positions, self.bodies)]
 
 
 @njit(cache=True)

@@ -20,34 +20,73 @@ from tensordict import TensorDict
 from .coverage_env import CoverageEnv, checked_action
 
 
+_CONTEXT = multiprocessing.get_context("spawn")  # no fork of torch's threads
+
+
+class BatchArrays:
+    """The batch's actions and step results, as numpy arrays over blocks of memory that, with
+    ``shared``, the worker processes share (a worker unpickles the same memory, not a copy). Each
+    shard reads its actions and writes its results in place, so a step sends a worker only a
+    signal and gets back only the episodes that ended."""
+
+    def __init__(self, num_envs: int, observation_size: int, shared: bool = False, blocks: dict | None = None):
+        self.num_envs, self.observation_size, self.shared = num_envs, observation_size, shared
+        fields = {
+            "actions": ((num_envs, 2), np.float64),
+            "observations": ((num_envs, observation_size), np.float32),
+            "rewards": ((num_envs,), np.float32),
+            "terminated": ((num_envs,), np.bool_),
+            "truncated": ((num_envs,), np.bool_),
+        }
+        if blocks is None:
+            sizes = {name: int(np.prod(shape)) * np.dtype(dtype).itemsize for name, (shape, dtype) in fields.items()}
+            blocks = {name: _CONTEXT.RawArray("b", size) if shared else bytearray(size) for name, size in sizes.items()}
+        self.blocks = blocks
+        for name, (shape, dtype) in fields.items():
+            setattr(self, name, np.frombuffer(blocks[name], dtype).reshape(shape))
+
+    def __reduce__(self):
+        if not self.shared:
+            raise TypeError("a worker given unshared batch arrays would write to a copy")
+        return BatchArrays, (self.num_envs, self.observation_size, True, self.blocks)
+
+
 class EnvShard:
-    """A run of consecutive envs (global indices ``first`` ...) stepped in a loop, numpy in and out."""
+    """A run of consecutive envs (global indices ``first`` ...) stepped in a loop, on their rows
+    of ``batch``."""
 
-    def __init__(self, layouts: list, first: int, count: int, seed: int, env_kwargs: dict):
+    def __init__(self, layouts: list, first: int, count: int, seed: int, env_kwargs: dict, batch: BatchArrays):
         self.first = first
+        rows = slice(first, first + count)
+        self.actions = batch.actions[rows, None]  # (count, 1, 2): each env's (K, 2) actions, K = 1
+        self.observations, self.rewards = batch.observations[rows], batch.rewards[rows]
+        self.terminated, self.truncated = batch.terminated[rows], batch.truncated[rows]
         self.envs = [CoverageEnv(layouts[(first + k) % len(layouts)], **env_kwargs) for k in range(count)]
-        self.observations = np.stack([env.reset(seed=seed + first + k)[0] for k, env in enumerate(self.envs)])
+        for k, env in enumerate(self.envs):
+            self.observations[k] = env.reset(seed=seed + first + k)[0]
 
-    def step(self, actions: np.ndarray):
-        count = len(self.envs)
-        rewards, terminated, truncated = np.zeros(count, np.float32), np.zeros(count, bool), np.zeros(count, bool)
-        finished = []
-        for k, (env, action) in enumerate(zip(self.envs, actions)):
-            rewards[k], terminated[k], truncated[k] = env.advance(action[None])
-            if terminated[k] or truncated[k]:
+    def step(self) -> list[tuple[int, dict]]:
+        """Step every env on its action; returns (env index, episode record) of the episodes that
+        ended (those envs are reset: their row holds the new first observation)."""
+        outcomes, finished = [], []
+        for k, (env, action, observation) in enumerate(zip(self.envs, self.actions, self.observations)):
+            step_reward, terminated, truncated = env.advance(action)
+            outcomes.append((step_reward, terminated, truncated))
+            if terminated or truncated:
                 finished.append((self.first + k, env.tracker.record()))
-                self.observations[k] = env.reset()[0]
+                observation[:] = env.reset()[0]
             else:
-                self.observations[k] = env.world.observe(0)
-        return self.observations, rewards, terminated, truncated, finished
+                env.world.observe(0, out=observation)
+        self.rewards[:], self.terminated[:], self.truncated[:] = zip(*outcomes)
+        return finished
 
 
 def _serve_shard(connection, *shard_arguments) -> None:
-    """Worker process: build a shard, then answer step requests until told to stop (None)."""
+    """Worker process: build a shard, then step it each time it is told to (True) until told to stop."""
     shard = EnvShard(*shard_arguments)
-    connection.send(shard.observations)
-    while (actions := connection.recv()) is not None:
-        connection.send(shard.step(actions))
+    connection.send(None)  # its first observations are written
+    while connection.recv():
+        connection.send(shard.step())
     connection.close()
 
 
@@ -59,57 +98,56 @@ class BatchedCoverageEnv:
     [N] bool, finished) where ``finished`` lists (env index, episode record) for every env whose
     episode ended on this step (those envs are already reset).
 
-    With ``num_workers > 1`` the envs are split into that many shards, each stepped in its own
-    process (the env step is single-threaded Python, so this is how a batch uses several cores).
+    With ``num_workers > 1`` the envs are split into that many shards, stepped at the same time:
+    the first in this process, each other one in a worker process of its own (the env step is
+    single-threaded Python, so this is how a batch uses several cores).
     Env ``i`` is seeded ``seed + i`` however the batch is split: results do not depend on it.
     Call :meth:`close` (or use ``with``) to stop the workers."""
 
     def __init__(self, layout="a320_cell", num_envs: int = 64, seed: int = 0, num_workers: int = 1, **env_kwargs):
-        layouts = list(layout) if isinstance(layout, (list, tuple)) else [layout]
-        examples = [CoverageEnv(name, **env_kwargs) for name in layouts]  # spaces and settings, for callers
+        requested = list(layout) if isinstance(layout, (list, tuple)) else [layout]
+        examples = [CoverageEnv(name, **env_kwargs) for name in requested]  # spaces and settings, for callers
         self.example_env = examples[0]
         self.num_envs = num_envs
         self.layout = self.example_env.layout
         self.layout_names = sorted({example.layout.name for example in examples})
         self.max_steps_per_env = [examples[index % len(examples)].max_steps for index in range(num_envs)]
         self.observation_size = self.example_env.observation_space.shape[0]
+        layouts = [example.layout for example in examples]  # parsed once, shared by the envs (which only read them)
         bounds = np.linspace(0, num_envs, max(1, min(num_workers, num_envs)) + 1).astype(int)
-        shards = [(layouts, int(first), int(last - first), seed, env_kwargs) for first, last in zip(bounds, bounds[1:])]
-        self.observations = np.zeros((num_envs, self.observation_size), dtype=np.float32)
-        self.slices = [slice(first, first + count) for _, first, count, _, _ in shards]
-        if len(shards) == 1:
-            self.local, self.workers = EnvShard(*shards[0]), []
-            self.observations[:] = self.local.observations
-        else:
-            context = multiprocessing.get_context("spawn")  # no fork of torch's threads
-            self.local, self.workers = None, []
-            for arguments in shards:
-                parent, child = context.Pipe()
-                process = context.Process(target=_serve_shard, args=(child, *arguments), daemon=True)
-                process.start()
-                self.workers.append((parent, process))
-            for (parent, _), part in zip(self.workers, self.slices):
-                self.observations[part] = parent.recv()
+        self.batch = BatchArrays(num_envs, self.observation_size, shared=len(bounds) > 2)
+        self.observations = self.batch.observations
+        shards = [(layouts, int(first), int(last - first), seed, env_kwargs, self.batch) for first, last in zip(bounds, bounds[1:])]
+        self.workers = []
+        for arguments in shards[1:]:
+            parent, child = _CONTEXT.Pipe()
+            process = _CONTEXT.Process(target=_serve_shard, args=(child, *arguments), daemon=True)
+            process.start()
+            self.workers.append((parent, process))
+        self.local = EnvShard(*shards[0])  # built while the workers build theirs
+        for parent, _ in self.workers:
+            parent.recv()
 
     def step(self, actions: torch.Tensor):
         actions = checked_action(np.asarray(actions.detach().cpu() if isinstance(actions, torch.Tensor) else actions))
         if len(actions) != self.num_envs:
             raise ValueError(f"expected {self.num_envs} actions, got {len(actions)}")
-        if self.local is not None:
-            parts = [self.local.step(actions)]
-        else:
-            for (parent, _), part in zip(self.workers, self.slices):
-                parent.send(actions[part])
-            parts = [parent.recv() for parent, _ in self.workers]
-        self.observations[:] = np.concatenate([part[0] for part in parts])
-        rewards, terminated, truncated = (np.concatenate([part[i] for part in parts]) for i in (1, 2, 3))
-        finished = [item for part in parts for item in part[4]]
-        return (torch.from_numpy(self.observations.copy()), torch.from_numpy(rewards),
-                torch.from_numpy(terminated), torch.from_numpy(truncated), finished)
+        batch = self.batch
+        batch.actions[:] = actions
+        for parent, _ in self.workers:
+            parent.send(True)  # the workers step their shards while this process steps the first
+        try:
+            finished = self.local.step()
+        finally:  # collect every reply, even if this shard failed, to keep the pipes in step
+            replies = [parent.recv() for parent, _ in self.workers]
+        finished += [item for reply in replies for item in reply]
+        # copies: callers keep the tensors of earlier steps
+        return (torch.from_numpy(batch.observations.copy()), torch.from_numpy(batch.rewards.copy()),
+                torch.from_numpy(batch.terminated.copy()), torch.from_numpy(batch.truncated.copy()), finished)
 
     def close(self) -> None:
         for parent, process in self.workers:
-            parent.send(None)
+            parent.send(False)
             process.join(timeout=5)
         self.workers = []
 
