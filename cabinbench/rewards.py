@@ -6,10 +6,12 @@ the reward is *set* to 3 (ML-Agents' ``SetReward``: it replaces that step's othe
 
 ``coverage`` is dense: +10 × the newly covered fraction of the coverable area (a whole episode
 is worth at most 10), collision -0.1, bound -1, step -0.005, cell cleared +1, exit +0.5, and
--10 × the fraction left uncovered in a cell the team leaves for good (sequential: through its
-exit, or by clearing the last cell, which ends the episode). Without that last term, reaching the
-last goal marker early is the best move: it ends the step costs and pays +1, whatever is left
-dirty; with it, leaving area behind costs what covering it would have paid.
+-10 × the fraction of the coverable area left uncovered for good: a cell's uncovered part when
+the team leaves it through its exit, and everything still uncovered when the episode ends
+(success, step limit or bound; cells the layout starts cleared are not charged). Without that
+term, reaching the last goal marker early was the best move in ``sequential``: it ends the step
+costs and pays +1, whatever is left dirty. With it, the area never covered costs the same however
+the episode ends, so ending early saves only step costs.
 
 For teams both are given per robot on its own events; cell clearing is a team event paid to
 every robot, and ``coverage`` pays each robot for the team's new area as well as its own

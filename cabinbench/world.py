@@ -51,7 +51,7 @@ class StepEvents:
     robots: list[RobotEvents]
     cells_cleared: int = 0  # cells cleared during this step (team)
     success: bool = False  # the layout's success criterion holds after this step
-    abandoned_pixels: int = 0  # sequential: coverable pixels left uncovered in a cell the team left for good
+    abandoned_pixels: int = 0  # coverable pixels left uncovered for good: a cell left through its exit, or the episode's end
 
     @property
     def team_new_coverable_pixels(self) -> int:
@@ -282,8 +282,6 @@ class World:
         if self.protocol == "sequential":
             exit_reached = self._advance_through_exits(events, poses, reach)
             self.success = all(self.cell_cleared.tolist())  # numpy's .all() costs a microsecond, even on a few cells
-            if self.success:  # the episode ends in the current cell
-                events.abandoned_pixels += self._uncovered_pixels(self.current_cell)
         else:
             self.success = self.coverage >= self.layout.success_coverage
         events.success = self.success
@@ -328,6 +326,12 @@ class World:
         if cell < self.layout.cleared_cells:
             return 0
         return int(self.coverable_by_cell[cell] - self.covered_by_cell[cell])
+
+    def end_episode(self, events: StepEvents) -> None:
+        """The episode ends after this step: what is still uncovered is left for good (in sequential only
+        the current cell and those ahead: the cells behind were charged when the team left them)."""
+        first = self.current_cell if self.protocol == "sequential" else 0
+        events.abandoned_pixels += sum(self._uncovered_pixels(cell) for cell in range(first, len(self.layout.cells)))
 
     def _all_through(self, passage: int, positions: np.ndarray) -> bool:
         cells = [self.cell_of[self.layout.to_pixel(x, y)] for x, y in positions]

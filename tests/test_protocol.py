@@ -125,3 +125,13 @@ def test_leaving_a_cell_the_layout_starts_cleared_costs_nothing():
             continue
         rewards.append(env.step(action)[1])
     assert rewards[-1] > 0.4  # the exit's +0.5, nothing charged for cell 0
+
+
+def test_coverage_reward_charges_what_is_uncovered_at_the_step_limit_too():
+    """Ending early saves only step costs: the area never covered costs the same at the step limit."""
+    env = CoverageEnv("a320_cell", reward="coverage", max_steps=50)
+    env.reset(seed=0)
+    for _ in range(50):
+        _, step_reward, terminated, truncated, info = env.step([0.0, 0.0])
+    assert truncated and not terminated
+    assert step_reward == pytest.approx(-10.0 * (1.0 - info["coverage"]) - 0.005, abs=0.01)

@@ -109,10 +109,11 @@ class CoverageEnv(gym.Env):
             raise RuntimeError("call reset() before step()")
         events = self.world.step(action)
         self.tracker.update(events)
-        step_reward = reward(self.reward_preset, events, 0, self.world.coverable_pixels)
         terminated = events.success or (self.terminate_on_bound and events.robots[0].bound_violations > 0)
         truncated = not terminated and self.tracker.steps >= self.max_steps
-        return step_reward, terminated, truncated
+        if terminated or truncated:
+            self.world.end_episode(events)
+        return reward(self.reward_preset, events, 0, self.world.coverable_pixels), terminated, truncated
 
     def _info(self) -> dict:
         return {**self.tracker.running(), "pose": self.world.poses[0].copy()}
