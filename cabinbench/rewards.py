@@ -5,13 +5,7 @@ hit -0.3, bound -10, step -0.01, exit landmark reached +2, and on the step that 
 the reward is *set* to 3 (ML-Agents' ``SetReward``: it replaces that step's other terms).
 
 ``coverage`` is dense: +10 × the newly covered fraction of the coverable area (a whole episode
-is worth at most 10), collision -0.1, bound -1, step -0.005, cell cleared +1, exit +0.5, and
--10 × the fraction of the coverable area left uncovered for good: a cell's uncovered part when
-the team leaves it through its exit, and everything still uncovered when the episode ends
-(success, step limit or bound; cells the layout starts cleared are not charged). Without that
-term, reaching the last goal marker early was the best move in ``sequential``: it ends the step
-costs and pays +1, whatever is left dirty. With it, the area never covered costs the same however
-the episode ends, so ending early saves only step costs.
+is worth at most 10), collision -0.1, bound -1, step -0.005, cell cleared +1, exit +0.5.
 
 For teams both are given per robot on its own events; cell clearing is a team event paid to
 every robot, and ``coverage`` pays each robot for the team's new area as well as its own
@@ -36,6 +30,6 @@ def reward(preset: str, events: StepEvents, robot: int, coverable_pixels: int, t
         new_fraction = mine.new_coverable_pixels / coverable_pixels
         if len(events.robots) > 1:
             new_fraction += team_weight * events.team_new_coverable_pixels / coverable_pixels
-        return (10.0 * (new_fraction - events.abandoned_pixels / coverable_pixels) - 0.1 * hits
-                - 1.0 * mine.bound_violations - 0.005 + 1.0 * events.cells_cleared + 0.5 * mine.exits_reached)
+        return (10.0 * new_fraction - 0.1 * hits - 1.0 * mine.bound_violations - 0.005
+                + 1.0 * events.cells_cleared + 0.5 * mine.exits_reached)
     raise ValueError(f"unknown reward preset {preset!r}; choose one of {REWARD_PRESETS}")

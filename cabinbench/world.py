@@ -51,7 +51,6 @@ class StepEvents:
     robots: list[RobotEvents]
     cells_cleared: int = 0  # cells cleared during this step (team)
     success: bool = False  # the layout's success criterion holds after this step
-    abandoned_pixels: int = 0  # coverable pixels left uncovered for good: a cell left through its exit, or the episode's end
 
     @property
     def team_new_coverable_pixels(self) -> int:
@@ -309,7 +308,6 @@ class World:
             if markers_reached(self.circles, self.circle_on, self.n_goals, self.n_exits, poses, reach, self._marker_hits):
                 robot = int(self._marker_hits[: self.n_exits][self._marker_hits[: self.n_exits] >= 0][0])
                 events.robots[robot].exits_reached += 1
-                events.abandoned_pixels += self._uncovered_pixels(passage)  # no way back once the bound closes
                 self.current_cell += 1
                 self.passage_open[passage] = False  # exits vanish; the bound closes once all are through
                 self.passages_closing.append(passage)
@@ -320,18 +318,6 @@ class World:
                 self._set_bound(closing, solid=True)
                 self.passages_closing.remove(closing)
         return exit_reached
-
-    def _uncovered_pixels(self, cell: int) -> int:
-        """Coverable pixels of ``cell`` not yet covered; 0 for the cells the layout starts cleared."""
-        if cell < self.layout.cleared_cells:
-            return 0
-        return int(self.coverable_by_cell[cell] - self.covered_by_cell[cell])
-
-    def end_episode(self, events: StepEvents) -> None:
-        """The episode ends after this step: what is still uncovered is left for good (in sequential only
-        the current cell and those ahead: the cells behind were charged when the team left them)."""
-        first = self.current_cell if self.protocol == "sequential" else 0
-        events.abandoned_pixels += sum(self._uncovered_pixels(cell) for cell in range(first, len(self.layout.cells)))
 
     def _all_through(self, passage: int, positions: np.ndarray) -> bool:
         cells = [self.cell_of[self.layout.to_pixel(x, y)] for x, y in positions]

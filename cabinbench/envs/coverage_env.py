@@ -109,11 +109,10 @@ class CoverageEnv(gym.Env):
             raise RuntimeError("call reset() before step()")
         events = self.world.step(action)
         self.tracker.update(events)
+        step_reward = reward(self.reward_preset, events, 0, self.world.coverable_pixels)
         terminated = events.success or (self.terminate_on_bound and events.robots[0].bound_violations > 0)
         truncated = not terminated and self.tracker.steps >= self.max_steps
-        if terminated or truncated:
-            self.world.end_episode(events)
-        return reward(self.reward_preset, events, 0, self.world.coverable_pixels), terminated, truncated
+        return step_reward, terminated, truncated
 
     def _info(self) -> dict:
         return {**self.tracker.running(), "pose": self.world.poses[0].copy()}

@@ -160,14 +160,12 @@ class TeamCoverageEnv(ParallelEnv):
         self.tracker.update(events)
         for index, robot in enumerate(events.robots):
             self._contacts[index] += (robot.collisions, robot.robot_collisions, robot.bound_violations)
-        terminated = bool(events.success)
-        truncated = not terminated and self.tracker.steps >= self.max_cycles
-        if terminated or truncated:
-            self.world.end_episode(events)
         rewards = {
             agent: reward(self.reward_preset, events, index, self.world.coverable_pixels, self.team_weight)
             for agent, index in self._index.items()
         }
+        terminated = bool(events.success)
+        truncated = not terminated and self.tracker.steps >= self.max_cycles
         terminations = dict.fromkeys(self.possible_agents, terminated)
         truncations = dict.fromkeys(self.possible_agents, truncated)
         observations, infos = self._observations(), self._infos()
