@@ -29,8 +29,10 @@ takes the same calls from the runner and turns them into one CSV row per iterati
 
 The shipped policies (``baselines/ppo_gail/checkpoints``) come from ``python -m cabinbench.train --baseline NAME
 --ship`` with the defaults below: 800 iterations x 64 envs x 64 steps = 3.3 M steps, seed 0. On the 2-core
-development machine, while other jobs were also running, an iteration took about 1.1 s (ppo_gail), 0.86 s (ppo_icm),
-0.58 s (ppo_gail_only) and 0.37 s (ppo), so training took 15, 11, 8 and 5 minutes.
+development machine the four trained at the same time (two processes per core), in 27 (ppo_gail), 23 (ppo_icm),
+19 (ppo_gail_only) and 13 (ppo) minutes; with a core to itself an iteration of ppo_gail takes 1.1-1.2 s, about
+16 minutes for the whole run. ``--ship`` also keeps each run's ``config.json`` and ``metrics.csv`` in
+``results/training/``, from which the leaderboard draws the training curves.
 """
 
 from __future__ import annotations
