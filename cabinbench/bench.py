@@ -4,7 +4,7 @@ Measures:
 
 - single-env steps/s of ``CabinBench/Coverage-v0`` (64 rays, random actions, resets included) on
   ``a320_cell`` and ``full_cabin``, pinned to one core;
-- the batched training env's agent-steps/s (env stepping alone, random actions), on one core and
+- the batched training env's agent-steps/s (env stepping alone, random actions; best of 3), on one core and
   with ``num_workers`` = the machine's cores (this process steps one shard, a worker each other);
 - the boustrophedon planner's time to plan ``full_cabin``;
 - peers stepped in the same run, so ratios survive machine drift: PettingZoo's Pistonball
@@ -49,8 +49,9 @@ def bench_single(layout: str, steps: int) -> float:
     return steps_per_second(gym.make("CabinBench/Coverage-v0", layout=layout, n_rays=64), steps)
 
 
-def bench_batched(layout: str, num_envs: int, steps: int, num_workers: int) -> float:
-    """Agent-steps/s of the batched env."""
+def bench_batched(layout: str, num_envs: int, steps: int, num_workers: int, repeats: int = 3) -> float:
+    """Agent-steps/s of the batched env: the best of ``repeats`` runs of ``steps`` steps (on a
+    shared machine the slower runs measure the neighbours, not the env)."""
     import torch
 
     from cabinbench.envs.batched import BatchedCoverageEnv
@@ -60,10 +61,13 @@ def bench_batched(layout: str, num_envs: int, steps: int, num_workers: int) -> f
     with BatchedCoverageEnv(layout, num_envs=num_envs, seed=0, num_workers=num_workers) as env:
         for action in actions[:5]:
             env.step(action)
-        started = time.perf_counter()
-        for action in actions:
-            env.step(action)
-        return steps * num_envs / (time.perf_counter() - started)
+        timings = []
+        for _ in range(repeats):
+            started = time.perf_counter()
+            for action in actions:
+                env.step(action)
+            timings.append(time.perf_counter() - started)
+        return steps * num_envs / min(timings)
 
 
 def bench_planner(layout: str) -> float | None:
