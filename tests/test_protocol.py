@@ -90,3 +90,34 @@ def test_open_protocol_succeeds_on_coverage():
     assert not env.world.success
     assert np.isclose(env.world.coverage, env.world.covered_coverable_pixels / env.world.coverable_pixels)
 
+
+
+def test_every_bound_the_team_passed_closes_once_all_robots_are_through():
+    """The leader clears two cells and passes two exits while the other robot waits in cell 0:
+    both bounds stay open for it, and both close once it has caught up."""
+    from cabinbench.layout import load_layout
+    from cabinbench.world import World
+
+    world = World(load_layout("full_cabin"), n_robots=2, protocol="sequential")
+    world.reset(np.random.default_rng(0))
+    idle = np.zeros((2, 2))
+
+    def move(robot, point):  # teleport, then one idle step for the protocol to see it
+        world.bodies[robot].position = (float(point[0]), float(point[1]))
+        world.step(idle)
+
+    def bound_closed(passage):
+        return bool(world.segment_on[world.bound_slices[passage]].all())
+
+    for cell in (0, 1):
+        goals = np.flatnonzero(world.goal_cell == cell)
+        world.goal_reached[goals[:-1]] = True  # the leader has been everywhere but the last goal
+        move(0, world.layout.goals[goals[-1]])
+        assert world.cell_cleared[cell] and not bound_closed(cell)
+        move(0, world.layout.passages[cell].exits[0])
+        assert world.current_cell == cell + 1
+    assert not bound_closed(0) and not bound_closed(1)  # robot 1 is still in cell 0
+    cell_2_goals = world.layout.goals[world.goal_cell == 2]
+    world.bodies[0].position = tuple(map(float, cell_2_goals[0]))
+    move(1, cell_2_goals[1])
+    assert bound_closed(0) and bound_closed(1)
