@@ -3,7 +3,8 @@
 Measures:
 
 - single-env steps/s of ``CabinBench/Coverage-v0`` (64 rays, random actions, resets included) on
-  ``a320_cell`` and ``full_cabin``, pinned to one core;
+  ``a320_cell`` and ``full_cabin``, and on ``a320_cell`` with the 16 x 16 coverage patch the shipped
+  policies observe, pinned to one core;
 - the batched training env's agent-steps/s (env stepping alone, random actions; best of 3), on one core and
   with ``num_workers`` = the machine's cores (this process steps one shard, a worker each other);
 - the boustrophedon planner's time to plan ``full_cabin``;
@@ -45,8 +46,8 @@ def steps_per_second(env, steps: int, seed: int = 0) -> float:
     return steps / (time.perf_counter() - started)
 
 
-def bench_single(layout: str, steps: int) -> float:
-    return steps_per_second(gym.make("CabinBench/Coverage-v0", layout=layout, n_rays=64), steps)
+def bench_single(layout: str, steps: int, **env_kwargs) -> float:
+    return steps_per_second(gym.make("CabinBench/Coverage-v0", layout=layout, n_rays=64, **env_kwargs), steps)
 
 
 def bench_batched(layout: str, num_envs: int, steps: int, num_workers: int, repeats: int = 3) -> float:
@@ -122,6 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     results = {
         "single_a320_cell_steps_per_s": bench_single("a320_cell", args.steps),
         "single_full_cabin_steps_per_s": bench_single("full_cabin", args.steps),
+        "single_a320_cell_patch16_steps_per_s": bench_single("a320_cell", args.steps, coverage_patch=16),
         "batched_a320_cell_agent_steps_per_s_one_core": bench_batched("a320_cell", args.num_envs, batched_steps, num_workers=1),
         f"batched_a320_cell_agent_steps_per_s_{len(cores)}_workers": all_cores,
         "boustrophedon_plan_full_cabin_s": bench_planner("full_cabin"),

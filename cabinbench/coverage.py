@@ -1,15 +1,76 @@
-"""Coverage stamping: the robot's disc footprint marked on the 0.05 m raster, compiled with numba.
+"""The coverage raster, compiled with numba: stamping the robot's footprint, and the robot's view of it.
 
 Each pixel counts the passes over it: a pass starts when the pixel enters the footprint (it is
 under the disc now and was not at the previous pose). The metrics module turns these counts
-into coverage and overlap; this kernel only keeps them up to date and reports what is new.
+into coverage and overlap; :func:`stamp_footprint` only keeps them up to date and reports what is new.
+
+:class:`CoveragePatch` is the optional part of the observation that shows the robot which floor
+near it is still uncleaned (DESIGN: "an egocentric local patch of the coverage raster"). A real
+cleaning robot keeps such a map from its odometry; without it a memoryless policy cannot tell a
+cleaned aisle from a dirty one, and so cannot know when a cell is done.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from numba import njit
+
+PATCH_SAMPLES = 3  # samples per patch cell and axis: a 0.25 m cell is read on a 3 x 3 grid
+
+
+@dataclass(frozen=True)
+class CoveragePatch:
+    """A square window of ``cells`` x ``cells`` cells of ``cell_size`` metres, centred on the robot and turned with
+    it. Each entry is the fraction of its cell that is coverable floor not yet covered (sampled on a
+    ``PATCH_SAMPLES`` grid). Rows run from behind the robot to ahead of it, columns from its right to its left.
+    Only floor the robot may clean now counts: in ``sequential`` the current cell, and the next one once its
+    passage is open; never the cells the layout starts cleared. ``cells = 0``: no patch."""
+
+    cells: int = 0
+    cell_size: float = 0.25
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.cells, int) or isinstance(self.cells, bool) or self.cells < 0:
+            raise ValueError(f"coverage_patch must be a whole number of cells >= 0 (0: no patch), got {self.cells!r}")
+        if not (isinstance(self.cell_size, (int, float)) and math.isfinite(self.cell_size) and self.cell_size > 0):
+            raise ValueError(f"coverage_patch_cell must be a positive size in metres, got {self.cell_size!r}")
+
+    @property
+    def size(self) -> int:
+        """Entries in the observation."""
+        return self.cells * self.cells
+
+
+@njit(cache=True)
+def write_coverage_patch(out, start, x, y, heading, cells, cell_size, pass_count, coverable_mask, cell_of,
+                         cell_visible, outside_visible, origin_x, origin_y, resolution):
+    """Write the :class:`CoveragePatch` of a robot at (x, y, heading) into ``out[start : start + cells**2]``.
+    ``cell_visible[c]`` says whether cell ``c``'s floor counts; ``outside_visible`` the same for floor in no cell."""
+    rows, cols = pass_count.shape
+    samples = cells * PATCH_SAMPLES  # per side
+    step = cell_size / PATCH_SAMPLES / resolution  # in pixels
+    # sample (i, j) lies at first + i * ahead + j * left, in pixel coordinates (column, row)
+    ahead_col, ahead_row = step * math.cos(heading), step * math.sin(heading)
+    left_col, left_row = -ahead_row, ahead_col
+    corner = -samples / 2 + 0.5
+    first_col = (x - origin_x) / resolution + corner * (ahead_col + left_col)
+    first_row = (y - origin_y) / resolution + corner * (ahead_row + left_row)
+    weight = 1.0 / (PATCH_SAMPLES * PATCH_SAMPLES)
+    out[start: start + cells * cells] = 0.0
+    for i in range(samples):
+        entry_row = start + (i // PATCH_SAMPLES) * cells
+        col_f, row_f = first_col + i * ahead_col, first_row + i * ahead_row
+        for j in range(samples):
+            if col_f >= 0.0 and row_f >= 0.0:  # int() then floors
+                col, row = int(col_f), int(row_f)
+                if col < cols and row < rows and pass_count[row, col] == 0 and coverable_mask[row, col]:
+                    cell = cell_of[row, col]
+                    if (cell >= 0 and cell_visible[cell]) or (cell < 0 and outside_visible):
+                        out[entry_row + j // PATCH_SAMPLES] += weight
+            col_f += left_col
+            row_f += left_row
 
 
 @njit(cache=True)

@@ -20,7 +20,7 @@ import pymunk
 from numba import njit
 from pymunk._chipmunk import lib as chipmunk
 
-from .coverage import stamp_footprint
+from .coverage import CoveragePatch, stamp_footprint, write_coverage_patch
 from .layout import MARKER_RADIUS, RESOLUTION, Layout
 from .lidar import BOUND, EXIT, GOAL, OBSTACLE, ROBOT, LidarConfig, cast_rays, encode_scan
 
@@ -61,12 +61,12 @@ class World:
     """K disc robots on one layout. Construct once; call :meth:`reset` before stepping."""
 
     def __init__(self, layout: Layout, n_robots: int = 1, protocol: str = "sequential",
-                 lidar: LidarConfig = LidarConfig()):
+                 lidar: LidarConfig = LidarConfig(), patch: CoveragePatch = CoveragePatch()):
         if protocol not in PROTOCOLS:
             raise ValueError(f"protocol must be one of {PROTOCOLS}, got {protocol!r}")
-        self.layout, self.n_robots, self.protocol, self.lidar = layout, n_robots, protocol, lidar
+        self.layout, self.n_robots, self.protocol, self.lidar, self.patch = layout, n_robots, protocol, lidar, patch
         self.ray_angles = lidar.ray_angles()
-        self.observation_size = lidar.n_rays * 6 + 2
+        self.observation_size = lidar.n_rays * 6 + patch.size + 2
         self.start_poses = start_poses(layout, n_robots)
         robot = layout.robot
         self._radius = robot.radius
@@ -341,11 +341,21 @@ class World:
         else:
             exits = np.zeros(self.n_exits, dtype=bool)
         self.circle_on = np.concatenate([goals, exits, np.ones(self.n_robots, dtype=bool)])
+        # The floor the coverage patch shows: what may be cleaned now. Not the cells the layout
+        # starts cleared: a tracking cell's first cell counts as clean, and the way on is ahead.
+        self.cell_visible = np.zeros(len(self.layout.cells), dtype=bool)
+        if self.protocol == "sequential":
+            self.cell_visible[self.current_cell] = True
+            if self.current_cell < len(self.passage_open) and self.passage_open[self.current_cell]:
+                self.cell_visible[self.current_cell + 1] = True
+        else:
+            self.cell_visible[:] = True
+        self.cell_visible[: self.layout.cleared_cells] = False
 
     def observe(self, index: int, out: np.ndarray | None = None) -> np.ndarray:
-        """Local observation of robot ``index``: per ray [distance / range, one-hot tag] then
-        [forward speed / max_speed, turn rate / max_turn_rate], clipped to [-1, 1]. Written into
-        ``out`` (float32, ``observation_size``) when given, else into a new array."""
+        """Local observation of robot ``index``: per ray [distance / range, one-hot tag], the coverage
+        patch (if any), then [forward speed / max_speed, turn rate / max_turn_rate], clipped to [-1, 1].
+        Written into ``out`` (float32, ``observation_size``) when given, else into a new array."""
         if out is None:
             out = np.empty(self.observation_size, dtype=np.float32)
         lidar, robot = self.lidar, self.layout.robot
@@ -354,6 +364,12 @@ class World:
         write_observation(out, index, self._poses, self.velocities, robot.max_speed, robot.max_turn_rate,
                           self.ray_angles, lidar.max_range, self.segments, self.segment_tags, self.segment_on,
                           self.circles, self.circle_tags, self.circle_on, noise)
+        if self.patch.cells:
+            x, y, heading = self._poses[index]
+            origin_x, origin_y = self.layout.origin
+            write_coverage_patch(out, 6 * lidar.n_rays, x, y, heading, self.patch.cells, self.patch.cell_size,
+                                 self.pass_count, self.coverable_mask, self.cell_of, self.cell_visible,
+                                 self.protocol == "open", origin_x, origin_y, RESOLUTION)
         return out
 
 

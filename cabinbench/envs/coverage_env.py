@@ -8,13 +8,18 @@ forward speed (m/s, negative reverses); angular × ``max_turn_rate`` is the turn
 counter-clockwise). Out-of-range values are clipped to [-1, 1]; NaN or infinite values raise
 ``ValueError`` (a silent zero would hide a diverged policy).
 
-**Observation**: ``Box(float32, (6 * n_rays + 2,))``. For each lidar ray (evenly spread over the
-field of view, starting behind the robot and turning counter-clockwise): the hit distance divided
-by the range (1 when nothing is hit), then a one-hot of what was hit, in the order
-``obstacle, bound, goal, exit, robot`` (all zero when nothing is). Last come the achieved forward
-speed / ``max_speed`` and turn rate / ``max_turn_rate``. Bounds are shown only while closed,
-goal markers only while unreached (in ``sequential``: only those of the current cell), exits only
-while their passage is open.
+**Observation**: ``Box(float32, (6 * n_rays + coverage_patch² + 2,))``. For each lidar ray
+(evenly spread over the field of view, starting behind the robot and turning counter-clockwise):
+the hit distance divided by the range (1 when nothing is hit), then a one-hot of what was hit, in
+the order ``obstacle, bound, goal, exit, robot`` (all zero when nothing is). With
+``coverage_patch = n > 0`` come next n × n entries in [0, 1]: an egocentric window of
+``coverage_patch_cell``-metre cells centred on the robot and turned with it, each the fraction of
+its cell that is floor still to be cleaned (:class:`~cabinbench.coverage.CoveragePatch`; rows from
+behind to ahead, columns from right to left; in ``sequential`` only the current cell's floor, and
+the next cell's once its passage is open; never that of cells the layout starts cleared). Last
+come the achieved forward speed / ``max_speed`` and turn rate / ``max_turn_rate``. Bounds are
+shown only while closed, goal markers only while unreached (in ``sequential``: only those of the
+current cell), exits only while their passage is open.
 
 **Reward**: the preset named by ``reward`` (:mod:`cabinbench.rewards`): ``paper`` (seed Tables
 4.4/4.5) or ``coverage`` (dense, per newly covered area).
@@ -31,23 +36,37 @@ of :mod:`cabinbench.metrics`.
 
 **Arguments**: ``layout`` (registered name, YAML path or a :class:`~cabinbench.layout.Layout`),
 ``protocol`` (``"sequential"`` or ``"open"``), ``reward``, ``n_rays``, ``lidar_range``,
-``field_of_view``, ``lidar_noise`` (m, Gaussian), ``max_steps``, ``terminate_on_bound``,
+``field_of_view``, ``lidar_noise`` (m, Gaussian), ``coverage_patch`` (cells per side, 0: none),
+``coverage_patch_cell`` (m), ``max_steps``, ``terminate_on_bound``,
 ``render_mode`` (``"rgb_array"`` or ``"human"``).
 """
 
 from __future__ import annotations
 
+import inspect
 import math
 
 import gymnasium as gym
 import numpy as np
 
+from ..coverage import CoveragePatch
 from ..layout import Layout, load_layout
 from ..lidar import LidarConfig
 from ..metrics import EpisodeTracker
 from ..render import EnvRenderer
 from ..rewards import REWARD_PRESETS, reward
 from ..world import World
+
+
+OBSERVATION_SETTINGS = ("n_rays", "lidar_range", "field_of_view", "coverage_patch", "coverage_patch_cell")
+"""The arguments (of this env and the team env) that shape the observation."""
+
+
+def observation_config(env_kwargs: dict, size: int) -> dict:
+    """The observation settings of an env made with ``env_kwargs`` (``CoverageEnv``'s defaults for those not given)
+    and the observation's size: what a policy or demonstrations must have been recorded with to fit the env."""
+    defaults = {name: parameter.default for name, parameter in inspect.signature(CoverageEnv).parameters.items()}
+    return {**{name: env_kwargs.get(name, defaults[name]) for name in OBSERVATION_SETTINGS}, "size": int(size)}
 
 
 def checked_action(action, size: int = 2) -> np.ndarray:
@@ -70,17 +89,20 @@ class CoverageEnv(gym.Env):
 
     def __init__(self, layout: str | Layout = "a320_cell", protocol: str = "sequential", reward: str = "paper",
                  n_rays: int = 64, lidar_range: float = 3.5, field_of_view: float = 2 * math.pi,
-                 lidar_noise: float = 0.0, max_steps: int | None = None, terminate_on_bound: bool = False,
-                 render_mode: str | None = None):
+                 lidar_noise: float = 0.0, coverage_patch: int = 0, coverage_patch_cell: float = 0.25,
+                 max_steps: int | None = None, terminate_on_bound: bool = False, render_mode: str | None = None):
         self.layout = layout if isinstance(layout, Layout) else load_layout(layout)
         lidar = LidarConfig(n_rays, lidar_range, field_of_view, lidar_noise)
-        self.world = World(self.layout, 1, protocol, lidar)
+        self.world = World(self.layout, 1, protocol, lidar, CoveragePatch(coverage_patch, coverage_patch_cell))
         if reward not in REWARD_PRESETS:
             raise ValueError(f"unknown reward preset {reward!r}; choose one of {REWARD_PRESETS}")
         self.reward_preset, self.terminate_on_bound = reward, terminate_on_bound
         self.max_steps = max_steps or self.layout.max_steps
         self.render_mode = render_mode
         self.observation_space = observation_space(self.world.observation_size)
+        self.observation_config = observation_config(
+            {"n_rays": n_rays, "lidar_range": lidar_range, "field_of_view": field_of_view,
+             "coverage_patch": coverage_patch, "coverage_patch_cell": coverage_patch_cell}, self.world.observation_size)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (2,), np.float32)
         self.tracker: EpisodeTracker | None = None
         self.renderer = EnvRenderer(render_mode)

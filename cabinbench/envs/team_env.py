@@ -15,10 +15,11 @@ others at the nearest free spots of the start cell (deterministic, at least a ro
 raise ``ValueError``. An agent whose action is missing from the dict (or ``None``) stands still
 for that step: it does not move, turn or clean, but it still collides and is still rewarded.
 
-**Observation** (per agent): ``Box(float32, (6 * n_rays + 2,))``, the single env's observation
-of that robot: per lidar ray the distance / range and a one-hot of
-``obstacle, bound, goal, exit, robot``, then the achieved forward speed / ``max_speed`` and turn
-rate / ``max_turn_rate``.
+**Observation** (per agent): ``Box(float32, (6 * n_rays + coverage_patch² + 2,))``, the single
+env's observation of that robot: per lidar ray the distance / range and a one-hot of ``obstacle,
+bound, goal, exit, robot``, then the coverage patch if ``coverage_patch > 0`` (the team's
+uncleaned floor around that robot, as in the single env), then the achieved forward speed /
+``max_speed`` and turn rate / ``max_turn_rate``.
 
 **State** (``state()``, ``state_space``): ``Box(float32, (6 * K + 4 + n_goals,))``. Per robot,
 in agent order: x and y normalised by the layout's extent to [0, 1], cos and sin of the heading,
@@ -52,7 +53,8 @@ the team's ``episode_record`` (:mod:`cabinbench.metrics`, with the team metrics 
 **Arguments**: ``layout`` (registered name, YAML path or a :class:`~cabinbench.layout.Layout`),
 ``n_agents`` (K), ``protocol`` (``"sequential"`` or ``"open"``), ``reward`` (``"paper"`` or
 ``"coverage"``), ``n_rays``, ``lidar_range`` (m), ``field_of_view`` (rad), ``lidar_noise`` (m,
-Gaussian; the only randomness, drawn from the reset seed), ``max_cycles`` (default: the
+Gaussian; the only randomness, drawn from the reset seed), ``coverage_patch`` (cells per side, 0:
+none) and ``coverage_patch_cell`` (m), ``max_cycles`` (default: the
 layout's ``max_steps``), ``render_mode`` (``"rgb_array"`` or ``"human"``), ``team_weight``.
 """
 
@@ -65,6 +67,7 @@ import numpy as np
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
+from ..coverage import CoveragePatch
 from ..layout import Layout, load_layout
 from ..lidar import LidarConfig
 from ..metrics import EpisodeTracker
@@ -87,8 +90,9 @@ class TeamCoverageEnv(ParallelEnv):
 
     def __init__(self, layout: str | Layout = "a320_cell", n_agents: int = 2, protocol: str = "sequential",
                  reward: str = "paper", n_rays: int = 64, lidar_range: float = 3.5,
-                 field_of_view: float = 2 * math.pi, lidar_noise: float = 0.0, max_cycles: int | None = None,
-                 render_mode: str | None = None, team_weight: float = 0.5):
+                 field_of_view: float = 2 * math.pi, lidar_noise: float = 0.0, coverage_patch: int = 0,
+                 coverage_patch_cell: float = 0.25, max_cycles: int | None = None, render_mode: str | None = None,
+                 team_weight: float = 0.5):
         if n_agents < 1:
             raise ValueError(f"n_agents must be at least 1, got {n_agents}")
         if reward not in REWARD_PRESETS:
@@ -97,7 +101,8 @@ class TeamCoverageEnv(ParallelEnv):
             raise ValueError(f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}")
         self.layout = layout if isinstance(layout, Layout) else load_layout(layout)
         lidar = LidarConfig(n_rays, lidar_range, field_of_view, lidar_noise)
-        self.world = World(self.layout, n_agents, protocol, lidar)  # raises when K robots do not fit
+        patch = CoveragePatch(coverage_patch, coverage_patch_cell)
+        self.world = World(self.layout, n_agents, protocol, lidar, patch)  # raises when K robots do not fit
         self.reward_preset, self.team_weight = reward, team_weight
         self.max_cycles = max_cycles or self.layout.max_steps
         self.render_mode = render_mode
