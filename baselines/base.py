@@ -53,6 +53,12 @@ class Baseline:
     def __init__(self, **config):
         self.config = config
 
+    @property
+    def env_options(self) -> dict:
+        """Env keyword arguments this baseline needs (a learned policy: the observation settings it was trained
+        with). The runner makes the env with them, under any the caller set explicitly."""
+        return {}
+
     def reset(self, context: EpisodeContext, observation: np.ndarray, info: dict) -> None:
         self.context = context
 

@@ -65,7 +65,8 @@ from ``info["pose"]``.
 
 Demonstrations for GAIL: :func:`record_demonstrations` runs this baseline in the env and saves
 ``observations`` [N, D] float32, ``actions`` [N, 2] float32, ``episode`` [N] int32 and
-``observation_config`` (JSON of the env settings that shape the observation) to an ``.npz``.
+``observation_config`` (JSON of the env's ``observation_config``: the settings that shape the
+observation) to an ``.npz``.
 """
 
 from __future__ import annotations
@@ -975,16 +976,9 @@ def record_demonstrations(layout: str, episodes: int, path: str, seed: int = 0, 
             observation, _, terminated, truncated, info = env.step(action)
             done = terminated or truncated
         records.append(info["episode_record"])
-    config = observation_config(env)
     np.savez_compressed(path, observations=np.array(observations, dtype=np.float32),
                         actions=np.array(actions, dtype=np.float32), episode=np.array(episode_of, dtype=np.int32),
-                        observation_config=np.array(json.dumps(config)))
+                        observation_config=np.array(json.dumps(env.observation_config)))
     return {"steps": len(actions), "coverage": float(np.mean([r["coverage"] for r in records])),
             "success": float(np.mean([r["success"] for r in records]))}
 
-
-def observation_config(env) -> dict:
-    """The env settings that shape the observation: demonstrations must match the learner's."""
-    lidar = env.world.lidar
-    return {"n_rays": lidar.n_rays, "max_range": lidar.max_range, "field_of_view": lidar.field_of_view,
-            "size": env.world.observation_size}

@@ -105,7 +105,8 @@ def run_episode(baseline_spec: str, layout: str | Layout, seed: int, protocol: s
                 frame_every: int | None = None) -> tuple[dict, dict]:
     """Play one episode; return ``(record, trajectory)``.
 
-    ``seed`` seeds the env reset and every baseline instance (``context.seed``). ``record`` is the
+    ``seed`` seeds the env reset and every baseline instance (``context.seed``). The env is made with
+    ``env_kwargs`` over the baseline's ``env_options`` (a learned policy's observation settings). ``record`` is the
     env's ``episode_record``. ``trajectory`` holds full-resolution arrays: ``positions``
     (steps + 1, K, 2) robot centres from ``info["pose"]``, ``coverage`` (steps + 1,) from
     ``info["coverage"]``, ``pass_count`` (the final coverage raster, passes per pixel) and, when
@@ -113,11 +114,11 @@ def run_episode(baseline_spec: str, layout: str | Layout, seed: int, protocol: s
     start, every ``frame_every`` steps and at the end.
     """
     layout = layout if isinstance(layout, Layout) else load_layout(layout)
-    env_kwargs, config = dict(env_kwargs or {}), dict(config or {})
+    baselines = [load_baseline(baseline_spec, **(config or {})) for _ in range(n_agents)]
+    env_kwargs = {**baselines[0].env_options, **(env_kwargs or {})}
     env = make_env(layout, protocol, n_agents, env_kwargs)
     observations, infos = env.reset(seed=seed)
     agents = list(env.agents)
-    baselines = [load_baseline(baseline_spec, **config) for _ in agents]
     for index, (agent, baseline) in enumerate(zip(agents, baselines)):
         context = EpisodeContext(layout, protocol, seed, agent=index, n_agents=n_agents, env_config=env_kwargs)
         baseline.reset(context, observations[agent], infos[agent])

@@ -136,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_USAGE
 
     max_steps = args.max_steps or layout.max_steps
-    env_config = {"reward": args.reward, "max_steps": max_steps}
+    env_config = {**baseline.env_options, "reward": args.reward, "max_steps": max_steps}
     header = run_header(layout, args.baseline, getattr(baseline, "config", args.config), args.protocol,
                         args.agents, args.seed, env_config)
     writer = RunWriter(run_path(args.out, header), header, layout)

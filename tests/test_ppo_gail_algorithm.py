@@ -240,6 +240,18 @@ def test_discriminator_separates_expert_from_random_pairs(demonstrations, tmp_pa
     assert (random_reward < 0).float().mean() > 0.5
 
 
+def test_gail_reward_is_centred_on_the_rollout_so_ending_early_pays_nothing(demonstrations):
+    # No environment reward and no time-outs: what PPO's returns see is the GAIL reward alone.
+    env = PointMassEnv(seed=0, max_episode_length=10_000, extrinsic_reward=False)
+    runner = make_runner("ppo_gail_only", demonstrations, env=env)
+    runner.learn(num_learning_iterations=2)
+
+    alg = runner.alg
+    assert alg.gail_rewards.abs().mean() > 1e-3  # the raw logit rewards are not zero...
+    # ...but the rewards the returns were computed from are those minus their rollout mean.
+    torch.testing.assert_close(alg.storage.rewards.squeeze(-1), alg.gail_rewards - alg.gail_rewards.mean())
+
+
 def test_ppo_gail_learns_to_reach_the_goal_from_demonstrations_alone(demonstrations):
     # No environment reward: the only learning signal is the GAIL reward.
     env = PointMassEnv(seed=0, extrinsic_reward=False)

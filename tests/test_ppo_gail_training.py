@@ -185,7 +185,6 @@ def _small_policy(tmp_path) -> "os.PathLike":
     """An exported, untrained 'ppo' policy for the default 64-ray env."""
     from rsl_rl.runners import OnPolicyRunner
 
-    from baselines.boustrophedon import observation_config
     from baselines.ppo_gail.algorithm import make_train_cfg
     from baselines.ppo_gail.policy import export_policy
     from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
@@ -193,7 +192,7 @@ def _small_policy(tmp_path) -> "os.PathLike":
     batched = BatchedCoverageEnv("a320_cell", 2, seed=0, max_steps=20)
     runner = OnPolicyRunner(RslRlVecEnv(batched), make_train_cfg("ppo", num_steps_per_env=4, hidden_dims=[16]),
                             log_dir=None)
-    return export_policy(runner, tmp_path / "ppo.pt", ablation="ppo", observation_config=observation_config(batched.example_env),
+    return export_policy(runner, tmp_path / "ppo.pt", ablation="ppo", observation_config=batched.example_env.observation_config,
                          env_config={}, training={})
 
 
@@ -216,7 +215,7 @@ def test_shipped_policy_loads_and_acts(name):
     baseline = load_baseline(name)
     layout = load_layout("a320_cell")
     observation = np.zeros(policy["observation_config"]["size"], dtype=np.float32)
-    baseline.reset(EpisodeContext(layout, "sequential", 0), observation, {})
+    baseline.reset(EpisodeContext(layout, "sequential", 0, env_config=baseline.env_options), observation, {})
     action = baseline.act(observation, {})
     assert action.shape == (2,) and np.all(np.abs(action) <= 1.0)
 

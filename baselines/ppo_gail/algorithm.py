@@ -229,9 +229,14 @@ class PPOCuriosityGail(PPO):
 
     The reward PPO optimises for the transition (s_t, a_t, s_t+1) is
 
-        r_t = r_env + curiosity_strength * surprise_t / std(surprise) + gail_strength * logit D(s_t, a_t)
+        r_t = r_env + curiosity_strength * surprise_t / std(surprise) + gail_strength * (logit D(s_t, a_t) - mean logit)
 
-    with either term switched off by ``use_curiosity`` / ``use_gail``. Both modules see the concatenated observation
+    where the mean is over the rollout (``compute_returns``): the logit is negative wherever the discriminator tells
+    the agent from the expert, nearly everywhere while it learns, so uncentred it pays the agent to end its episodes
+    early (measured: a ppo_gail run's training coverage fell from 0.8 to 0.55 between iterations 150 and 350 while it
+    reached the last goal marker ever sooner). Centred, it ranks the agent's actions without paying it to live or die.
+
+    Either term is switched off by ``use_curiosity`` / ``use_gail``. Both modules see the concatenated observation
     groups of the actor (the policy observation, which is also what the demonstrations record). The runner's logged
     episode reward stays the environment reward, so the ablations remain comparable.
     """
@@ -348,6 +353,11 @@ class PPOCuriosityGail(PPO):
             shaped_rewards = shaped_rewards + gail_rewards
 
         super().process_env_step(obs, shaped_rewards, dones, extras)
+
+    def compute_returns(self, obs: TensorDict) -> None:
+        if self.discriminator is not None:
+            self.storage.rewards -= self.gail_rewards.mean()  # centre the GAIL reward (see the class docstring)
+        super().compute_returns(obs)
 
     # --- Learning ----------------------------------------------------------------------------------------------------
 

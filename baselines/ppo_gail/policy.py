@@ -13,11 +13,12 @@ values and tensors, written by ``export_policy`` at the end of training (``basel
 
     format              "cabinbench-policy/1"
     ablation            "ppo_gail" | "ppo" | "ppo_icm" | "ppo_gail_only"
-    actor               {"hidden_dims": [64, 64], "activation": "elu", "observation_size": 386, "action_size": 2,
+    actor               {"hidden_dims": [64, 64], "activation": "elu", "observation_size": 642, "action_size": 2,
                          "state_dict": the MLP's weights, rsl-rl's key names ("0.weight", "0.bias", "2.weight", ...)}
     obs_normalizer      {"mean": [D], "std": [D], "eps": float} or None (rsl-rl's EmpiricalNormalization)
     action_std          [A], the Gaussian policy's std at the end of training (used only with ``stochastic``)
-    observation_config  the lidar settings the policy was trained with (``boustrophedon.observation_config``)
+    observation_config  the observation settings the policy was trained with (``CoverageEnv.observation_config``):
+                        ``run`` makes the env with them (``env_options``)
     env_config          the training envs' layouts, reward preset, terminate_on_bound, max_steps
     training            the training summary: iterations, steps, time, final coverage and success ...
 
@@ -27,7 +28,6 @@ inference policy exactly (tested).
 
 from __future__ import annotations
 
-import inspect
 import math
 import os
 from pathlib import Path
@@ -190,24 +190,14 @@ def load_policy(path: str | os.PathLike) -> dict:
     return _CACHE[key]
 
 
-def env_observation_config(context: EpisodeContext, observation: np.ndarray) -> dict:
-    """The observation config of the env an episode runs in, from the lidar settings it was made with
-    (``context.env_config``, defaults of ``CoverageEnv`` otherwise) and the observation's size."""
-    from cabinbench.envs.coverage_env import CoverageEnv
-
-    defaults = {name: parameter.default for name, parameter in inspect.signature(CoverageEnv).parameters.items()}
-    settings = {**defaults, **context.env_config}
-    return {"n_rays": int(settings["n_rays"]), "max_range": float(settings["lidar_range"]),
-            "field_of_view": float(settings["field_of_view"]), "size": int(np.asarray(observation).shape[-1])}
-
-
 def check_observation_config(trained: dict, env: dict, path: str | os.PathLike) -> None:
     """Raise ``PolicyFileError`` unless the env's observation is shaped like the policy's training observation."""
     different = [key for key in sorted(set(trained) | set(env)) if not _same(trained.get(key), env.get(key))]
     if different:
         details = ", ".join(f"{key}: trained {trained.get(key)!r}, env {env.get(key)!r}" for key in different)
         raise PolicyFileError(f"{path}: the policy was trained on another observation layout ({details}). "
-                              "Run the env with the lidar settings the policy was trained with, or retrain.")
+                              "Run the env with the observation settings the policy was trained with (its "
+                              "env_options), or retrain.")
 
 
 # ---------------------------------------------------------------------------------------------------------------------
@@ -230,22 +220,26 @@ class LearnedPolicy(Baseline):
         super().__init__(**settings)
         self.path = Path(checkpoint) if checkpoint is not None else CHECKPOINT_DIR / f"{self.ablation}.pt"
         self.stochastic = bool(stochastic)
-        self.policy: dict | None = None
+        self.policy = load_policy(self.path)
+        if self.policy["ablation"] != self.ablation:
+            raise PolicyFileError(f"{self.path}: holds a {self.policy['ablation']!r} policy, not {self.ablation!r}; "
+                                  f"run it as --baseline {self.policy['ablation']}")
         self.rng: np.random.Generator | None = None
 
+    @property
+    def env_options(self) -> dict:
+        """The observation settings the policy was trained with."""
+        return {key: value for key, value in self.policy["observation_config"].items() if key != "size"}
+
     def reset(self, context: EpisodeContext, observation: np.ndarray, info: dict) -> None:
+        from cabinbench.envs.coverage_env import observation_config
+
         super().reset(context, observation, info)
         # One observation at a time: torch's intra-op threads only add overhead, and on a busy
         # 2-core machine they turned a 0.3 ms forward pass into 14 ms.
         torch.set_num_threads(1)
-        if self.policy is None:
-            policy = load_policy(self.path)
-            if policy["ablation"] != self.ablation:
-                raise PolicyFileError(f"{self.path}: holds a {policy['ablation']!r} policy, not {self.ablation!r}; "
-                                      f"run it as --baseline {policy['ablation']}")
-            self.policy = policy
-        check_observation_config(self.policy["observation_config"], env_observation_config(context, observation),
-                                 self.path)
+        env_config = observation_config(context.env_config, np.asarray(observation).shape[-1])
+        check_observation_config(self.policy["observation_config"], env_config, self.path)
         if self.stochastic:
             self.rng = np.random.default_rng([context.seed, context.agent])
             self.action_std = self.policy["action_std"].numpy().astype(np.float64)
