@@ -233,8 +233,9 @@ class PPOCuriosityGail(PPO):
 
     where the mean is over the rollout (``compute_returns``): the logit is negative wherever the discriminator tells
     the agent from the expert, nearly everywhere while it learns, so uncentred it pays the agent to end its episodes
-    early (measured: a ppo_gail run's training coverage fell from 0.8 to 0.55 between iterations 150 and 350 while it
-    reached the last goal marker ever sooner). Centred, it ranks the agent's actions without paying it to live or die.
+    early. Centred, it ranks the agent's actions without paying it to live or to die. Measured with the default
+    config, seed 0, 20 episodes each: ppo_gail's coverage of a320_cell rose from 0.53 to 0.60, and ppo_gail_only's
+    zero-shot coverage of full_cabin from 0.16 to 0.88 (9.6 of 10 cells cleared).
 
     Either term is switched off by ``use_curiosity`` / ``use_gail``. Both modules see the concatenated observation
     groups of the actor (the policy observation, which is also what the demonstrations record). The runner's logged

@@ -29,10 +29,10 @@ takes the same calls from the runner and turns them into one CSV row per iterati
 
 The shipped policies (``baselines/ppo_gail/checkpoints``) come from ``python -m cabinbench.train --baseline NAME
 --ship`` with the defaults below: 800 iterations x 64 envs x 64 steps = 3.3 M steps, seed 0. On the 2-core
-development machine the four trained at the same time (two processes per core), in 27 (ppo_gail), 23 (ppo_icm),
-19 (ppo_gail_only) and 13 (ppo) minutes; with a core to itself an iteration of ppo_gail takes 1.1-1.2 s, about
-16 minutes for the whole run. ``--ship`` also keeps each run's ``config.json`` and ``metrics.csv`` in
-``results/training/``, from which the leaderboard draws the training curves.
+development machine ppo_gail and ppo_gail_only trained side by side in 17.7 and 8.6 minutes; ppo and ppo_icm, which
+the GAIL reward's centring does not touch, trained earlier with two more runs beside them in 13 and 23 minutes.
+``--ship`` also keeps each run's ``config.json`` and ``metrics.csv`` in ``results/training/``, from which the
+leaderboard draws the training curves.
 """
 
 from __future__ import annotations
@@ -87,12 +87,11 @@ class TrainConfig:
     reward, which is negative wherever the agent does not look like the expert, a bound that ends the episode is an
     exit from that penalty: in trial runs the agent learnt to drive into the bound of the tracking cell within ~100
     steps. The contact still costs the preset's bound penalty."""
-    coverage_patch: int = 16
+    coverage_patch: int = 0
     coverage_patch_cell: float = 0.25
-    """The observation's coverage patch (``CoverageEnv``): 16 x 16 cells of 0.25 m, a 4 m window that holds most of
-    a training cell. Without it the policy sees only lidar and cannot tell cleaned floor from uncleaned: the
-    policies trained so covered about half of ``a320_cell`` before reaching its last goal marker, which ends the
-    episode."""
+    """The observation's coverage patch (``CoverageEnv``; 0: none, the study's lidar-only observation). With
+    ``coverage_patch=16`` (a 4 m window) plain ppo covered 0.78 of ``a320_cell`` (0.45 without) but cleared no cell
+    of ``full_cabin`` zero-shot: it learnt the training cell's layout rather than a cleaning behaviour."""
     max_steps: int | None = None
     """Episode step limit; None keeps each layout's own (1500 for both training cells, the seed's cells used 3000)."""
     hidden_dims: list[int] = field(default_factory=lambda: [64, 64])
