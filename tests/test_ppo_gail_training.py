@@ -6,6 +6,7 @@ own inference policy, the errors of bad policy files, and the CLI's usage errors
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -181,15 +182,33 @@ def test_stochastic_option_samples_the_trained_gaussian_reproducibly(tmp_path):
     assert load_baseline("ppo", **config).config == config
 
 
-def _small_policy(tmp_path) -> "os.PathLike":
-    """An exported, untrained 'ppo' policy for the default 64-ray env."""
+def test_a_policy_runs_in_the_observation_it_was_trained_on(tmp_path):
+    """A policy trained with a coverage patch carries that setting: run_episode and the run CLI make the env with it,
+    and the run's records say so."""
+    policy = _small_policy(tmp_path, coverage_patch=4)
+    baseline = load_baseline("ppo", checkpoint=str(policy))
+    assert baseline.env_options["coverage_patch"] == 4
+    record, _ = run_episode("ppo", "a320_cell", seed=0, env_kwargs={"max_steps": 10}, config={"checkpoint": str(policy)})
+    assert record["steps"] == 10
+
+    from cabinbench.run import main as run_main
+
+    out = tmp_path / "runs"
+    assert run_main(["--baseline", "ppo", "--layout", "a320_cell", "--episodes", "1", "--max-steps", "10",
+                     "--config", json.dumps({"checkpoint": str(policy)}), "--out", str(out), "--json"]) == 0
+    header = json.loads(next(out.glob("*.jsonl")).read_text().splitlines()[0])
+    assert header["env_config"]["coverage_patch"] == 4
+
+
+def _small_policy(tmp_path, **env_kwargs) -> "os.PathLike":
+    """An exported, untrained 'ppo' policy for the default 64-ray env (or one made with ``env_kwargs``)."""
     from rsl_rl.runners import OnPolicyRunner
 
     from baselines.ppo_gail.algorithm import make_train_cfg
     from baselines.ppo_gail.policy import export_policy
     from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
 
-    batched = BatchedCoverageEnv("a320_cell", 2, seed=0, max_steps=20)
+    batched = BatchedCoverageEnv("a320_cell", 2, seed=0, max_steps=20, **env_kwargs)
     runner = OnPolicyRunner(RslRlVecEnv(batched), make_train_cfg("ppo", num_steps_per_env=4, hidden_dims=[16]),
                             log_dir=None)
     return export_policy(runner, tmp_path / "ppo.pt", ablation="ppo", observation_config=batched.example_env.observation_config,
