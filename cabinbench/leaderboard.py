@@ -1,9 +1,10 @@
 """Regenerate the leaderboard from the per-episode records: ``python -m cabinbench.leaderboard``.
 
-    python -m cabinbench.leaderboard [--runs results/runs] [--training results/training] [--out results]
+    python -m cabinbench.leaderboard [--runs results/runs] [--ablation-runs results/ablation_runs]
+        [--training results/training] [--out results]
 
-Reads every ``*.jsonl`` in ``--runs`` (and the ``.npz`` beside each, see :mod:`cabinbench.records`)
-and writes, from those files only:
+Reads every ``*.jsonl`` in ``--runs`` and ``--ablation-runs`` (default: ``ablation_runs`` beside ``--runs``),
+and the ``.npz`` beside each (see :mod:`cabinbench.records`), and writes, from those files only:
 
 - ``<out>/leaderboard.md`` and ``<out>/leaderboard.csv``: one row per (layout, baseline,
   protocol, K), sorted; per metric the mean and its 95% bootstrap interval (:mod:`cabinbench.stats`),
@@ -21,6 +22,12 @@ and writes, from those files only:
   measures the limit, not the team), with the ideal T(1)/K and each K's speed-up T(1)/T(K);
   ``training__<baseline>.png``: the training curves (the seed's Fig. 5.8) of each shipped learned
   policy, from the ``metrics.csv`` that ``python -m cabinbench.train --ship`` keeps in ``--training``.
+- ``<out>/ablation.md`` and ``<out>/ablation.csv``: the learned baselines across training runs. One training
+  run per ablation says little: two seeds of the same command differ as much as the ablations do. So the
+  policies of further training seeds (``results/training/<baseline>/seed<S>/policy.pt``) are run like the
+  shipped ones, into ``--ablation-runs`` (only those records: the leaderboard's rows stay the shipped
+  policies'); per (layout, baseline) the table gives each policy's mean over its episodes, and the mean over
+  policies with the lowest and highest policy. The shipped policies' episodes come from ``--runs``.
 
 Exits 1 when there are no records.
 """
@@ -60,6 +67,8 @@ CONFIG_FIELDS = ("layout_hash", "env_config", "baseline_config")  # should not d
 stored_run = lru_cache(maxsize=None)(read_trajectories)  # each .npz is read once per leaderboard
 PNG_METADATA = {"Software": None}  # keeps committed figures free of the matplotlib version string
 CURVE_POINTS = 200
+ABLATION_METRICS = {"coverage": ".3f", "success": ".2f", "cells_cleared": ".1f"}  # metric → number format
+SHIPPED = "shipped"  # the policy a learned baseline runs when no checkpoint is given
 
 
 # ------------------------------------------------------------------------------------ rows
@@ -328,12 +337,88 @@ def write_figures(groups: list[tuple[dict, pd.DataFrame]], rows: list[dict], fol
     return written
 
 
+# ------------------------------------------------------------------------ ablation over training runs
+def policy_of(baseline_config: dict) -> str:
+    """The trained policy an episode ran: its ``checkpoint`` file, or the shipped one."""
+    return str(baseline_config.get("checkpoint", SHIPPED))
+
+
+def policy_name(policy: str) -> str:
+    """Short name of a policy in the tables: ``shipped``, or the folder holding its file (``seed1``)."""
+    return policy if policy == SHIPPED else Path(policy).parent.name or policy
+
+
+def ablation_rows(records: pd.DataFrame) -> list[dict]:
+    """Per (layout, learned baseline), sequential and one robot: each trained policy's mean of every
+    ``ABLATION_METRICS`` metric over its episodes (the shipped policy first), in table order."""
+    from baselines.ppo_gail.algorithm import ABLATIONS
+
+    learned = records[records["baseline"].isin(list(ABLATIONS)) & (records["protocol"] == "sequential")
+                      & (records["n_agents"] == 1)]
+    learned = learned.assign(policy=[policy_of(config) for config in learned["baseline_config"]])
+    rows = []
+    for (layout, baseline), episodes in learned.groupby(["layout", "baseline"]):
+        policies = sorted(episodes.groupby("policy"), key=lambda item: (item[0] != SHIPPED, item[0]))
+        rows.append({
+            "layout": layout, "baseline": baseline, **ABLATIONS[baseline],
+            "policies": [policy for policy, _ in policies],
+            "episodes": [len(group) for _, group in policies],
+            **{metric: [float(group[metric].mean()) for _, group in policies] for metric in ABLATION_METRICS},
+        })
+    baseline_order = list(ABLATIONS)
+    return sorted(rows, key=lambda row: (row["layout"], baseline_order.index(row["baseline"])))
+
+
+def ablation_csv(rows: list[dict]) -> pd.DataFrame:
+    """One line per (layout, baseline, policy): its episodes and metric means."""
+    lines = []
+    for row in rows:
+        for index, policy in enumerate(row["policies"]):
+            lines.append({"layout": row["layout"], "baseline": row["baseline"], "policy": policy,
+                          "episodes": row["episodes"][index],
+                          **{metric: row[metric][index] for metric in ABLATION_METRICS}})
+    return pd.DataFrame(lines)
+
+
+def ablation_markdown(rows: list[dict], sources: str, command: str) -> str:
+    def spread(values: list[float], number_format: str) -> str:
+        if len(values) == 1:
+            return f"{values[0]:{number_format}}"
+        return f"{np.mean(values):{number_format}} [{min(values):{number_format}}, {max(values):{number_format}}]"
+
+    lines = [
+        "# cabinbench: the learned baselines across training runs",
+        "",
+        f"Generated by `{command}` from the per-episode records in {sources}; do not edit by hand.",
+        "",
+        "Each learned baseline is trained by the same command with the same budget under several seeds "
+        "(`python -m cabinbench.train --baseline NAME --seed S`). `shipped`: the policy in "
+        "`baselines/ppo_gail/checkpoints/` (the leaderboard's row); `seedS`: `results/training/NAME/seedS/policy.pt`. "
+        "Each policy is scored by its mean over its episodes; a cell gives the mean over the policies and, in "
+        "brackets, the lowest and highest policy. With a few training runs that range, not a confidence interval, "
+        "is the uncertainty to read. Sequential protocol, one robot; zero-shot on all but `a320_cell`.",
+        "",
+        "| layout | baseline | ICM | GAIL | policies | episodes | "
+        + " | ".join(metric for metric in ABLATION_METRICS) + " | coverage per policy |",
+        "|---|---|---|---|---:|---:|" + "---:|" * len(ABLATION_METRICS) + "---|",
+    ]
+    for row in rows:
+        per_policy = ", ".join(f"{policy_name(policy)} {value:.3f}" for policy, value in zip(row["policies"], row["coverage"]))
+        cells = [row["layout"], row["baseline"], "yes" if row["use_curiosity"] else "no", "yes" if row["use_gail"] else "no",
+                 str(len(row["policies"])), str(sum(row["episodes"])),
+                 *(spread(row[metric], number_format) for metric, number_format in ABLATION_METRICS.items()), per_policy]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 # ------------------------------------------------------------------------------------ main
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m cabinbench.leaderboard", description="Regenerate the leaderboard tables and figures from the per-episode records.")
     parser.add_argument("--runs", default="results/runs", help="folder of run records (default results/runs)")
     parser.add_argument("--training", default="results/training", help="folder of shipped training records (default results/training)")
-    parser.add_argument("--out", default="results", help="folder for leaderboard.{md,csv} and figures/ (default results)")
+    parser.add_argument("--ablation-runs",
+                        help="folder of run records of further training runs' policies (default: ablation_runs beside --runs)")
+    parser.add_argument("--out", default="results", help="folder for leaderboard.{md,csv}, ablation.{md,csv} and figures/ (default results)")
     args = parser.parse_args(argv)
     records = read_records(args.runs) if Path(args.runs).is_dir() else pd.DataFrame()
     if records.empty:
@@ -353,6 +438,15 @@ def main(argv: list[str] | None = None) -> int:
     figures = write_figures(groups, rows, out / "figures") + training_figures(Path(args.training), out / "figures")
     print(f"{len(rows)} rows from {len(records)} episodes: {out / 'leaderboard.md'}, {out / 'leaderboard.csv'}, "
           f"{len(figures)} figures in {out / 'figures'}")
+    ablation_runs = Path(args.ablation_runs or Path(args.runs).parent / "ablation_runs").as_posix()
+    further = read_records(ablation_runs) if Path(ablation_runs).is_dir() else pd.DataFrame()
+    learned = ablation_rows(pd.concat([records, further], ignore_index=True) if not further.empty else records)
+    if learned:
+        sources = f"`{args.runs}` (shipped policies) and `{ablation_runs}` (the others)"
+        (out / "ablation.md").write_text(
+            ablation_markdown(learned, sources, f"{command} --ablation-runs {ablation_runs}"), encoding="utf-8")
+        ablation_csv(learned).to_csv(out / "ablation.csv", index=False, float_format="%.6g", lineterminator="\n")
+        print(f"{len(learned)} ablation rows: {out / 'ablation.md'}, {out / 'ablation.csv'}")
     return 0
 
 

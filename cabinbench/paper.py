@@ -2,8 +2,8 @@
 
 Fills ``paper/template.md``'s placeholders from generated material only: ``{{layouts_table}}``
 from the layout files (size, cells, areas, complexity), ``{{leaderboard_table}}`` from
-``results/leaderboard.md`` (itself generated from the run records by
-``python -m cabinbench.leaderboard``) and ``{{figures}}`` from ``results/figures/``. Nothing in the
+``results/leaderboard.md`` and ``{{ablation_table}}`` from ``results/ablation.md`` (both generated from
+the run records by ``python -m cabinbench.leaderboard``), and ``{{figures}}`` from ``results/figures/``. Nothing in the
 paper's tables is typed by hand; the same inputs give a byte-identical paper.
 """
 
@@ -29,9 +29,11 @@ def layouts_table() -> str:
     return "\n".join(lines)
 
 
-def leaderboard_table(results: Path) -> str:
-    """The leaderboard's tables, without its title (the paper has its own headings)."""
-    text = (results / "leaderboard.md").read_text(encoding="utf-8")
+def generated_table(path: Path) -> str:
+    """A generated table file without its title (the paper has its own headings); a note if it is missing."""
+    if not path.is_file():
+        return f"(no `{path.name}` yet: run `python -m cabinbench.leaderboard`)"
+    text = path.read_text(encoding="utf-8")
     return "\n".join(line for line in text.splitlines() if not line.startswith("# ")).strip()
 
 
@@ -47,7 +49,8 @@ def build(template: Path, results: Path, out: Path) -> str:
     text = template.read_text(encoding="utf-8")
     replacements = {
         "{{layouts_table}}": layouts_table(),
-        "{{leaderboard_table}}": leaderboard_table(results),
+        "{{leaderboard_table}}": generated_table(results / "leaderboard.md"),
+        "{{ablation_table}}": generated_table(results / "ablation.md"),
         "{{figures}}": figures(results, out.parent),
     }
     for placeholder, value in replacements.items():

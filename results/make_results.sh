@@ -2,9 +2,9 @@
 # Regenerate every committed result: the recorded runs, the leaderboard, its figures and the paper.
 # Usage: bash results/make_results.sh   (from the repository root; about 15 minutes on 2 cores)
 set -euo pipefail
-rm -rf results/runs results/figures
+rm -rf results/runs results/ablation_runs results/figures
 # 20 episodes per setting: 5 runs (seeds 0, 100, ..., 400) of 4 episodes (episode i uses seed + i)
-run() { for seed in 0 100 200 300 400; do python -m cabinbench.run --episodes 4 --seed "$seed" --out results/runs "$@" > /dev/null; done; }
+run() { for seed in 0 100 200 300 400; do python -m cabinbench.run --episodes 4 --seed "$seed" --out "${OUT:-results/runs}" "$@" > /dev/null; done; }
 
 # Classic baselines on the four cabin layouts, both protocols.
 for layout in a320_cell shape_changed b777_3col full_cabin; do
@@ -33,6 +33,16 @@ for baseline in ppo_gail ppo ppo_icm ppo_gail_only; do
       run --baseline "$baseline" --layout "$layout" --protocol sequential
     done
   fi
+done
+
+# The learned baselines' further training runs (results/ablation.md): the policies of seeds 1, 2, ... that
+# results/training/<baseline>/seed<S>/ keeps from `python -m cabinbench.train --baseline <baseline> --seed <S>`.
+for policy in results/training/*/seed*/policy.pt; do
+  [ -f "$policy" ] || continue
+  baseline=$(basename "$(dirname "$(dirname "$policy")")")
+  for layout in a320_cell shape_changed b777_3col full_cabin; do
+    OUT=results/ablation_runs run --baseline "$baseline" --layout "$layout" --protocol sequential --config "{\"checkpoint\": \"$policy\"}"
+  done
 done
 
 python -m cabinbench.leaderboard

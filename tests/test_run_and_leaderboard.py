@@ -176,3 +176,31 @@ def test_statistics_edge_cases():
     never = reach_time([None, None])
     assert math.isnan(never.mean) and never.reached == 0.0
     assert never.as_dict()["mean"] is None
+
+
+def test_ablation_table_scores_each_training_run_and_their_spread(tmp_path):
+    """The shipped ppo policy's episodes (in --runs) and another policy file's (in --ablation-runs) are scored per
+    policy; the table gives the mean over policies with the lowest and highest; the leaderboard keeps only the
+    shipped policy's episodes."""
+    from baselines.ppo_gail.policy import CHECKPOINT_DIR
+
+    other = tmp_path / "training" / "ppo" / "seed7" / "policy.pt"
+    other.parent.mkdir(parents=True)
+    other.write_bytes((CHECKPOINT_DIR / "ppo.pt").read_bytes())
+    short = ["--baseline", "ppo", "--layout", "a320_cell", "--max-steps", "150", "--episodes", "2"]
+    assert run_main([*short, "--seed", "0", "--out", str(tmp_path / "runs")])[0] == 0
+    config = json.dumps({"checkpoint": str(other)})
+    assert run_main([*short, "--seed", "10", "--config", config, "--out", str(tmp_path / "ablation_runs")])[0] == 0
+
+    assert leaderboard.main(["--runs", str(tmp_path / "runs"), "--out", str(tmp_path / "out")]) == 0
+    shipped = read_records(tmp_path / "runs")["coverage"].mean()
+    seed7 = read_records(tmp_path / "ablation_runs")["coverage"].mean()
+    assert shipped != seed7  # different episode seeds: the two policies' scores differ
+    table = (tmp_path / "out" / "ablation.md").read_text()
+    low, high = sorted([shipped, seed7])
+    assert (f"| a320_cell | ppo | no | no | 2 | 4 | {(shipped + seed7) / 2:.3f} [{low:.3f}, {high:.3f}] |" in table)
+    assert f"shipped {shipped:.3f}, seed7 {seed7:.3f} |" in table
+    lines_csv = (tmp_path / "out" / "ablation.csv").read_text().splitlines()
+    assert lines_csv[0] == "layout,baseline,policy,episodes,coverage,success,cells_cleared"
+    assert [line.split(",")[2] for line in lines_csv[1:]] == ["shipped", str(other)]
+    assert "| a320_cell | 0.3011 / 23.19 | ppo | sequential | 1 | 2 | 2 |" in (tmp_path / "out" / "leaderboard.md").read_text()
