@@ -104,17 +104,26 @@ def safe_name(text) -> str:
 
 
 def run_path(out_dir: str | os.PathLike, header: dict) -> Path:
-    """A new records path ``<layout>__<baseline>__<protocol>__k<K>__seed<S>-<UTC time>.jsonl``."""
+    """A new records path ``<layout>__<baseline>__<protocol>__k<K>__seed<S>-<UTC time>[-<n>].jsonl``, created
+    empty: the name is claimed at once (exclusive create), so runs of the same setting started in the same second,
+    in parallel into one folder, each get a file of their own (``-1``, ``-2`` ...)."""
     now = datetime.datetime.now(datetime.timezone.utc)
     parts = [header["layout"], header["baseline"], header["protocol"], f"k{header['n_agents']}",
              f"seed{header['seed']}-{now:%Y%m%dT%H%M%SZ}"]
     stem = "__".join(map(safe_name, parts))
-    path = Path(out_dir) / f"{stem}.jsonl"
-    suffix = 1
-    while path.exists() or trajectory_path(path).exists():  # two runs in the same second
-        path = Path(out_dir) / f"{stem}-{suffix}.jsonl"
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    suffix = 0
+    while True:
+        path = out / (f"{stem}-{suffix}.jsonl" if suffix else f"{stem}.jsonl")
         suffix += 1
-    return path
+        if trajectory_path(path).exists():
+            continue
+        try:
+            with open(path, "x", encoding="utf-8"):
+                return path
+        except FileExistsError:
+            continue
 
 
 def trajectory_path(records_path: str | os.PathLike) -> Path:

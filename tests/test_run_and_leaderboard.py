@@ -16,7 +16,7 @@ from cabinbench import leaderboard, run
 from cabinbench.episodes import run_jobs
 from cabinbench.layout import available_layouts
 from cabinbench.metrics import METRICS, TEAM_METRICS
-from cabinbench.records import RECORD_FIELDS, read_records, read_trajectories
+from cabinbench.records import RECORD_FIELDS, read_records, read_trajectories, run_path
 from cabinbench.stats import iqm, mean_ci, reach_time
 
 SHORT = ["--baseline", "random_bounce", "--layout", "a320_cell", "--max-steps", "200"]
@@ -98,6 +98,15 @@ def test_interrupt_keeps_finished_episodes(monkeypatch, tmp_path):
     assert "2 finished episode(s) kept" in stderr and str(records_path) in stderr
     assert [record["episode"] for record in lines(records_path)] == [0, 1]
     assert sorted(read_trajectories(records_path).episodes) == [0, 1]
+
+
+def test_runs_started_together_each_get_their_own_file(tmp_path):
+    """Runs of one setting started in the same second into one folder (in parallel) must not share a file: the
+    name is claimed when it is chosen, not when the first episode is written."""
+    header = {"layout": "a320_cell", "baseline": "ppo", "protocol": "sequential", "n_agents": 1, "seed": 0}
+    paths = [run_path(tmp_path, header) for _ in range(3)]
+    assert len(set(paths)) == 3 and all(path.is_file() for path in paths)
+    assert read_records(tmp_path).empty  # a claimed file with no episode yet holds no record
 
 
 def test_truncated_last_line_is_skipped(short_run, tmp_path):
