@@ -5,7 +5,7 @@
         [--reward paper|coverage] [--[no-]terminate-on-bound] [--max-steps N] [--algorithm JSON]
         [--min-action-std X] [--coverage-patch N]
         [--threads N] [--save-interval N]
-        [--demonstrations FILE.npz ...] [--run-dir DIR] [--resume] [--ship] [--no-progress]
+        [--demonstrations FILE.npz ...] [--run-dir DIR] [--resume] [--ship] [--keep] [--no-progress]
 
 Options not given take the defaults of ``baselines.ppo_gail.training.TrainConfig`` (the shipped policies'
 configuration; with ``--layout`` repeated, one policy trains on all of them, by default ``a320_cell`` and
@@ -15,6 +15,8 @@ an interrupted run from its latest checkpoint, with the saved config (``--iterat
 ``--ship`` copies the exported policy to ``baselines/ppo_gail/checkpoints/<baseline>.pt``, where
 ``python -m cabinbench.run --baseline <baseline>`` finds it, and the run's ``config.json`` and ``metrics.csv`` to
 ``results/training/<baseline>/``, from which ``python -m cabinbench.leaderboard`` draws the committed training curves.
+``--keep`` copies the policy, ``config.json`` and ``metrics.csv`` to ``results/training/<baseline>/seed<S>/``: a
+further training run of the same command, which ``results/make_results.sh`` scores into ``results/ablation.md``.
 
 Exit status: 0 done; 2 bad arguments (an unknown baseline: the valid ones are printed) or a run directory that
 cannot be used as asked; 130 interrupted by Ctrl-C (finished checkpoints are kept; resume with ``--resume``).
@@ -31,7 +33,7 @@ from pathlib import Path
 
 EXIT_USAGE, EXIT_INTERRUPTED = 2, 130
 TRAINABLE = ("ppo_gail", "ppo", "ppo_icm", "ppo_gail_only")  # = baselines.ppo_gail.algorithm.ABLATIONS
-TRAINING_RECORDS = Path("results/training")  # what --ship keeps of a run for the committed curves
+TRAINING_RECORDS = Path("results/training")  # what --ship and --keep keep of a run
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
@@ -59,6 +61,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--run-dir", help="run directory (default runs/train/<baseline>__seed<S>)")
     parser.add_argument("--resume", action="store_true", help="continue the run in --run-dir from its latest checkpoint")
     parser.add_argument("--ship", action="store_true", help="copy the exported policy to baselines/ppo_gail/checkpoints/")
+    parser.add_argument("--keep", action="store_true",
+                        help="copy the policy and training records to results/training/<baseline>/seed<S>/ (results/ablation.md)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     if args.algorithm is not None and not isinstance(args.algorithm, dict):
@@ -126,17 +130,26 @@ def main(argv: list[str] | None = None) -> int:
     print(f"policy: {result.policy_path}\ncurves: {result.run_dir / 'curves.png'}\n"
           f"metrics: {result.run_dir / 'metrics.csv'}")
     if args.ship:
-        CHECKPOINT_DIR.mkdir(parents=True, exist_ok=True)
         shipped = CHECKPOINT_DIR / f"{config.ablation}.pt"
-        temporary = shipped.with_name(shipped.name + ".tmp")
-        shutil.copyfile(result.policy_path, temporary)
-        os.replace(temporary, shipped)
+        copy_file(result.policy_path, shipped)
         records = TRAINING_RECORDS / config.ablation
-        records.mkdir(parents=True, exist_ok=True)
         for name in ("config.json", "metrics.csv"):
-            shutil.copyfile(result.run_dir / name, records / name)
+            copy_file(result.run_dir / name, records / name)
         print(f"shipped: {shipped}; training records: {records}")
+    if args.keep:
+        kept = TRAINING_RECORDS / config.ablation / f"seed{config.seed}"
+        for name in ("policy.pt", "config.json", "metrics.csv"):
+            copy_file(result.run_dir / name, kept / name)
+        print(f"kept: {kept} (score it with the loop in results/make_results.sh)")
     return 0
+
+
+def copy_file(source: Path, target: Path) -> None:
+    """Copy atomically: a reader never sees a half-written file."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    temporary = target.with_name(target.name + ".tmp")
+    shutil.copyfile(source, temporary)
+    os.replace(temporary, target)
 
 
 if __name__ == "__main__":

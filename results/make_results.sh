@@ -35,8 +35,8 @@ for baseline in ppo_gail ppo ppo_icm ppo_gail_only; do
   fi
 done
 
-# The learned baselines' further training runs (results/ablation.md): the policies of seeds 1, 2, ... that
-# results/training/<baseline>/seed<S>/ keeps from `python -m cabinbench.train --baseline <baseline> --seed <S>`.
+# The learned baselines' further training runs (results/ablation.md): the policies of seeds 1, 2, ... kept in
+# results/training/<baseline>/seed<S>/ by `python -m cabinbench.train --baseline <baseline> --seed <S> --keep`.
 for policy in results/training/*/seed*/policy.pt; do
   [ -f "$policy" ] || continue
   baseline=$(basename "$(dirname "$(dirname "$policy")")")

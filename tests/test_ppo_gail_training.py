@@ -254,5 +254,13 @@ def test_ship_installs_the_policy_and_keeps_its_training_records(tmp_path, monke
     assert read_policy_file(tmp_path / "checkpoints" / "ppo.pt")["ablation"] == "ppo"
     records = tmp_path / "results" / "training" / "ppo"
     assert len(training.read_metrics(records / "metrics.csv")) == 2
+    # --keep: a further training seed's policy and records, beside the shipped run's
+    status = train_main(["--baseline", "ppo", "--layout", "a320_cell", "--iterations", "1", "--num-envs", "4",
+                         "--steps-per-env", "8", "--max-steps", "20", "--run-dir", "run3", "--seed", "3", "--keep",
+                         "--no-progress"])
+    assert status == 0
+    kept = records / "seed3"
+    assert read_policy_file(kept / "policy.pt")["ablation"] == "ppo" and json.loads((kept / "config.json").read_text())["seed"] == 3
+    assert len(training.read_metrics(kept / "metrics.csv")) == 1
     figures = leaderboard.training_figures(tmp_path / "results" / "training", tmp_path)
     assert [path.name for path in figures] == ["training__ppo.png"] and figures[0].stat().st_size > 10_000
