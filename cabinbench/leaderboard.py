@@ -399,11 +399,12 @@ def ablation_markdown(rows: list[dict], sources: str, command: str) -> str:
         "is the uncertainty to read. Sequential protocol, one robot; zero-shot on all but `a320_cell`.",
         "",
         "| layout | baseline | ICM | GAIL | policies | episodes | "
-        + " | ".join(metric for metric in ABLATION_METRICS) + " | coverage per policy |",
+        + " | ".join(metric for metric in ABLATION_METRICS) + " | per policy: coverage / cells_cleared |",
         "|---|---|---|---|---:|---:|" + "---:|" * len(ABLATION_METRICS) + "---|",
     ]
     for row in rows:
-        per_policy = ", ".join(f"{policy_name(policy)} {value:.3f}" for policy, value in zip(row["policies"], row["coverage"]))
+        per_policy = ", ".join(f"{policy_name(policy)} {coverage:.3f} / {cells:.1f}"
+                               for policy, coverage, cells in zip(row["policies"], row["coverage"], row["cells_cleared"]))
         cells = [row["layout"], row["baseline"], "yes" if row["use_curiosity"] else "no", "yes" if row["use_gail"] else "no",
                  str(len(row["policies"])), str(sum(row["episodes"])),
                  *(spread(row[metric], number_format) for metric, number_format in ABLATION_METRICS.items()), per_policy]
