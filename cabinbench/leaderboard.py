@@ -28,6 +28,7 @@ and the ``.npz`` beside each (see :mod:`cabinbench.records`), and writes, from t
   shipped ones, into ``--ablation-runs`` (only those records: the leaderboard's rows stay the shipped
   policies'); per (layout, baseline) the table gives each policy's mean over its episodes, and the mean over
   policies with the lowest and highest policy. The shipped policies' episodes come from ``--runs``.
+  ``figures/ablation_coverage.png`` draws the coverage: a bar for the mean over policies, a dot per policy.
 
 Exits 1 when there are no records.
 """
@@ -369,6 +370,31 @@ def ablation_rows(records: pd.DataFrame) -> list[dict]:
     return sorted(rows, key=lambda row: (row["layout"], baseline_order.index(row["baseline"])))
 
 
+def ablation_figure(rows: list[dict], path: Path) -> None:
+    """Coverage of each learned baseline per layout: a bar for the mean over its policies, a dot per policy."""
+    layouts = sorted({row["layout"] for row in rows})
+    baselines = list(dict.fromkeys(row["baseline"] for row in rows))
+    width = 0.8 / len(baselines)
+    figure = Figure(figsize=(max(6.4, 1.6 * len(layouts)), 4.0))
+    axes = figure.subplots()
+    for index, baseline in enumerate(baselines):
+        colour = colormaps["tab10"](index % 10)
+        chosen = {row["layout"]: row["coverage"] for row in rows if row["baseline"] == baseline}
+        offset = (index - (len(baselines) - 1) / 2) * width
+        positions = [layout_index + offset for layout_index, layout in enumerate(layouts) if layout in chosen]
+        values = [chosen[layout] for layout in layouts if layout in chosen]
+        axes.bar(positions, [np.mean(policies) for policies in values], width, color=colour, alpha=0.6, label=baseline)
+        for position, policies in zip(positions, values):
+            axes.plot([position] * len(policies), policies, "o", color=colour, markeredgecolor="black", markersize=4)
+    axes.set_xticks(range(len(layouts)), layouts, rotation=20, ha="right")
+    axes.set_ylabel("coverage")
+    axes.set_ylim(0, 1.0)
+    axes.set_title("learned baselines: mean over training runs (bar), each trained policy (dot)", fontsize=10)
+    axes.legend(fontsize=8)
+    axes.grid(axis="y", alpha=0.3)
+    save_figure(figure, path)
+
+
 def ablation_csv(rows: list[dict]) -> pd.DataFrame:
     """One line per (layout, baseline, policy): its episodes and metric means."""
     lines = []
@@ -447,7 +473,9 @@ def main(argv: list[str] | None = None) -> int:
         (out / "ablation.md").write_text(
             ablation_markdown(learned, sources, f"{command} --ablation-runs {ablation_runs}"), encoding="utf-8")
         ablation_csv(learned).to_csv(out / "ablation.csv", index=False, float_format="%.6g", lineterminator="\n")
-        print(f"{len(learned)} ablation rows: {out / 'ablation.md'}, {out / 'ablation.csv'}")
+        ablation_figure(learned, out / "figures" / "ablation_coverage.png")
+        print(f"{len(learned)} ablation rows: {out / 'ablation.md'}, {out / 'ablation.csv'}, "
+              f"{out / 'figures' / 'ablation_coverage.png'}")
     return 0
 
 

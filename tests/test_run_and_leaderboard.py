@@ -213,3 +213,4 @@ def test_ablation_table_scores_each_training_run_and_their_spread(tmp_path):
     assert lines_csv[0] == "layout,baseline,policy,episodes,coverage,success,cells_cleared"
     assert [line.split(",")[2] for line in lines_csv[1:]] == ["shipped", str(other)]
     assert "| a320_cell | 0.3011 / 23.19 | ppo | sequential | 1 | 2 | 2 |" in (tmp_path / "out" / "leaderboard.md").read_text()
+    assert Image.open(tmp_path / "out" / "figures" / "ablation_coverage.png").size[0] > 500
