@@ -149,6 +149,8 @@ def main(argv: list[str] | None = None) -> int:
 
     finished, interrupted = collect(run_jobs(jobs, args.workers), writer, len(jobs))
     if interrupted:
+        if not finished:
+            writer.path.unlink(missing_ok=True)  # the name claimed for the run, still empty
         where = f"{writer.path} (trajectories: {writer.trajectory_path})" if finished else "nothing was written"
         print(f"interrupted: {len(finished)} finished episode(s) kept; {where}", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerate every committed result: the recorded runs, the leaderboard, its figures and the paper.
-# Usage: bash results/make_results.sh   (from the repository root; about 15 minutes on 2 cores)
+# Usage: bash results/make_results.sh   (from the repository root; about an hour: the runs are sequential)
 set -euo pipefail
 rm -rf results/runs results/ablation_runs results/figures
 # 20 episodes per setting: 5 runs (seeds 0, 100, ..., 400) of 4 episodes (episode i uses seed + i)

@@ -100,6 +100,17 @@ def test_interrupt_keeps_finished_episodes(monkeypatch, tmp_path):
     assert sorted(read_trajectories(records_path).episodes) == [0, 1]
 
 
+def test_interrupt_before_the_first_episode_leaves_no_file(monkeypatch, tmp_path):
+    def interrupted_at_once(jobs, workers):
+        raise KeyboardInterrupt
+        yield
+
+    monkeypatch.setattr(run, "run_jobs", interrupted_at_once)
+    status, _, stderr = run_main([*SHORT, "--episodes", "2", "--out", str(tmp_path)])
+    assert status == 130 and "nothing was written" in stderr
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_runs_started_together_each_get_their_own_file(tmp_path):
     """Runs of one setting started in the same second into one folder (in parallel) must not share a file: the
     name is claimed when it is chosen, not when the first episode is written."""
