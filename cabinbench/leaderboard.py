@@ -68,7 +68,7 @@ CONFIG_FIELDS = ("layout_hash", "env_config", "baseline_config")  # should not d
 stored_run = lru_cache(maxsize=None)(read_trajectories)  # each .npz is read once per leaderboard
 PNG_METADATA = {"Software": None}  # keeps committed figures free of the matplotlib version string
 CURVE_POINTS = 200
-ABLATION_METRICS = {"coverage": ".3f", "success": ".2f", "cells_cleared": ".1f"}  # metric → number format
+ABLATION_METRICS = {"coverage": ".3f", "success": ".2f", "cells_cleared": ".2f"}  # metric → number format
 SHIPPED = "shipped"  # the policy a learned baseline runs when no checkpoint is given
 
 
@@ -429,7 +429,7 @@ def ablation_markdown(rows: list[dict], sources: str, command: str) -> str:
         "|---|---|---|---|---:|---:|" + "---:|" * len(ABLATION_METRICS) + "---|",
     ]
     for row in rows:
-        per_policy = ", ".join(f"{policy_name(policy)} {coverage:.3f} / {cells:.1f}"
+        per_policy = ", ".join(f"{policy_name(policy)} {coverage:.3f} / {cells:.2f}"
                                for policy, coverage, cells in zip(row["policies"], row["coverage"], row["cells_cleared"]))
         cells = [row["layout"], row["baseline"], "yes" if row["use_curiosity"] else "no", "yes" if row["use_gail"] else "no",
                  str(len(row["policies"])), str(sum(row["episodes"])),

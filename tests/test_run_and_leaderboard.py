@@ -219,7 +219,7 @@ def test_ablation_table_scores_each_training_run_and_their_spread(tmp_path):
     table = (tmp_path / "out" / "ablation.md").read_text()
     low, high = sorted([shipped, seed7])
     assert (f"| a320_cell | ppo | no | no | 2 | 4 | {(shipped + seed7) / 2:.3f} [{low:.3f}, {high:.3f}] |" in table)
-    assert f"shipped {shipped:.3f} / 0.0, seed7 {seed7:.3f} / 0.0 |" in table  # 150 steps clear no cell
+    assert f"shipped {shipped:.3f} / 0.00, seed7 {seed7:.3f} / 0.00 |" in table  # 150 steps clear no cell
     lines_csv = (tmp_path / "out" / "ablation.csv").read_text().splitlines()
     assert lines_csv[0] == "layout,baseline,policy,episodes,coverage,success,cells_cleared"
     assert [line.split(",")[2] for line in lines_csv[1:]] == ["shipped", str(other)]
