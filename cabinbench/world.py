@@ -67,6 +67,7 @@ class World:
         self.layout, self.n_robots, self.protocol, self.lidar, self.patch = layout, n_robots, protocol, lidar, patch
         self.ray_angles = lidar.ray_angles()
         self.observation_size = lidar.n_rays * 6 + patch.size + 2
+        self.patch_columns = slice(lidar.n_rays * 6, lidar.n_rays * 6 + patch.size)  # where observe writes the patch
         self.start_poses = start_poses(layout, n_robots)
         robot = layout.robot
         self._radius = robot.radius
@@ -367,7 +368,7 @@ class World:
         if self.patch.cells:
             x, y, heading = self._poses[index]
             origin_x, origin_y = self.layout.origin
-            write_coverage_patch(out, 6 * lidar.n_rays, x, y, heading, self.patch.cells, self.patch.cell_size,
+            write_coverage_patch(out, self.patch_columns.start, x, y, heading, self.patch.cells, self.patch.cell_size,
                                  self.pass_count, self.coverable_mask, self.cell_of, self.cell_visible,
                                  self.protocol == "open", origin_x, origin_y, RESOLUTION)
         return out

@@ -37,8 +37,7 @@ def reference_patch(world, x, y, heading, cells=CELLS, cell_size=CELL_SIZE):
 
 
 def observed_patch(env, observation):
-    rays = env.world.lidar.n_rays
-    return observation[6 * rays: 6 * rays + CELLS * CELLS].reshape(CELLS, CELLS)
+    return observation[env.world.patch_columns].reshape(CELLS, CELLS)
 
 
 def test_patch_sits_between_the_rays_and_the_velocities_and_leaves_them_alone():

@@ -252,6 +252,25 @@ def test_gail_reward_is_centred_on_the_rollout_so_ending_early_pays_nothing(demo
     torch.testing.assert_close(alg.storage.rewards.squeeze(-1), alg.gail_rewards - alg.gail_rewards.mean())
 
 
+def test_shaping_columns_are_all_that_the_icm_and_the_discriminator_see(demonstrations):
+    # Only the relative goal position: the velocity stands in for a part of the observation, such as the coverage
+    # patch, that the demonstrations show differently from the agent whatever the agent does.
+    runner = make_runner("ppo_gail", demonstrations, shaping_columns=[0, 1])
+    runner.learn(num_learning_iterations=2)
+
+    alg = runner.alg
+    assert alg.expert_observations.shape[1] == 2
+    assert alg.curiosity.encoder(torch.zeros(1, 2)).shape == (1, 256)
+    states = random_states(64, torch.Generator().manual_seed(0))
+    actions = torch.zeros(64, 2)
+    other_velocity = torch.cat([states[:, :2], -states[:, 2:]], dim=-1)
+    rewards = [alg.discriminator.reward(alg._shaping_observation(TensorDict({"policy": s}, batch_size=[64])), actions)
+               for s in (states, other_velocity)]
+    torch.testing.assert_close(rewards[0], rewards[1])
+    with pytest.raises(RuntimeError):
+        alg.discriminator.reward(states, actions)  # the whole observation does not fit D
+
+
 def test_ppo_gail_learns_to_reach_the_goal_from_demonstrations_alone(demonstrations):
     # No environment reward: the only learning signal is the GAIL reward.
     env = PointMassEnv(seed=0, extrinsic_reward=False)

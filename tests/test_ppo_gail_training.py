@@ -103,6 +103,22 @@ def test_train_interrupt_resume_export_reload_and_evaluate(tmp_path, monkeypatch
     assert record["path_length"] > 0
 
 
+def test_training_with_a_coverage_patch_keeps_it_from_the_icm_and_the_discriminator(tmp_path):
+    """The actor sees the patch; the reward-shaping modules see the 64 rays and the velocity only."""
+    result = training.train(tiny_config(coverage_patch=4, iterations=1, save_interval=1), tmp_path / "run",
+                            progress=False)
+    checkpoint = torch.load(tmp_path / "run" / "checkpoints" / "model_000001.pt", weights_only=True)
+    shaping_inputs, actions = 6 * 64 + 2, 2
+    assert _input_size(checkpoint["discriminator_state_dict"]) == shaping_inputs + actions
+    assert _input_size(checkpoint["curiosity_state_dict"]) == shaping_inputs
+    assert read_policy_file(result.policy_path)["observation_config"]["size"] == shaping_inputs + 4 * 4
+
+
+def _input_size(state_dict: dict) -> int:
+    """Inputs of a network's first layer: the first weight matrix in its state dict."""
+    return next(value for key, value in state_dict.items() if key.endswith("weight")).shape[1]
+
+
 def test_exported_actor_reproduces_rsl_rl_inference_policy(tmp_path):
     from rsl_rl.runners import OnPolicyRunner
     from tensordict import TensorDict

@@ -238,8 +238,9 @@ class PPOCuriosityGail(PPO):
     zero-shot coverage of full_cabin from 0.16 to 0.88 (9.6 of 10 cells cleared).
 
     Either term is switched off by ``use_curiosity`` / ``use_gail``. Both modules see the concatenated observation
-    groups of the actor (the policy observation, which is also what the demonstrations record). The runner's logged
-    episode reward stays the environment reward, so the ablations remain comparable.
+    groups of the actor (the policy observation, which is also what the demonstrations record), or the
+    ``shaping_columns`` of it. The runner's logged episode reward stays the environment reward, so the ablations remain
+    comparable.
     """
 
     def __init__(
@@ -261,6 +262,7 @@ class PPOCuriosityGail(PPO):
         gail_learning_rate: float = 3.0e-4,
         expert_demonstrations: Sequence[str | os.PathLike] = (),
         expected_observation_config: dict | str | None = None,
+        shaping_columns: Sequence[int] | None = None,
         **ppo_kwargs,
     ) -> None:
         """Build PPO and the enabled reward modules.
@@ -283,6 +285,9 @@ class PPOCuriosityGail(PPO):
             expert_demonstrations: ``.npz`` files, see ``demonstrations.load_demonstrations``.
             expected_observation_config: The environment's observation layout; demonstrations recorded with another
                 layout are rejected.
+            shaping_columns: The columns of the policy observation that the ICM and the discriminator see (None: all
+                of it). Training leaves out the coverage patch: the expert's patches show its own sweep, which the
+                discriminator would tell from the agent's by the patch alone, whatever the agent does.
             ppo_kwargs: Passed to ``PPO`` (gamma, lam, learning_rate, ..., device, multi_gpu_cfg).
         """
         super().__init__(actor, critic, storage, **ppo_kwargs)
@@ -295,18 +300,20 @@ class PPOCuriosityGail(PPO):
         self.gail_gradient_penalty = gail_gradient_penalty
 
         observation_dim = sum(storage.observations[group].shape[-1] for group in self._raw_actor.obs_groups)
+        self.shaping_columns = None if shaping_columns is None else torch.as_tensor(shaping_columns, device=self.device)
+        shaping_dim = observation_dim if shaping_columns is None else len(shaping_columns)
         action_dim = storage.actions.shape[-1]
         rollout_shape = (storage.num_transitions_per_env, storage.num_envs)
 
         self.curiosity: IntrinsicCuriosityModule | None = None
         if use_curiosity:
             self.curiosity = IntrinsicCuriosityModule(
-                observation_dim, action_dim, curiosity_encoding_size, curiosity_hidden_dims
+                shaping_dim, action_dim, curiosity_encoding_size, curiosity_hidden_dims
             ).to(self.device)
             self.curiosity_optimizer = torch.optim.Adam(self.curiosity.parameters(), lr=curiosity_learning_rate)
             # s_t+1 of each stored transition; RolloutStorage keeps only s_t. Allocated here, outside the runner's
             # inference mode, so the buffer can be used for training.
-            self.next_states = torch.zeros(*rollout_shape, observation_dim, device=self.device)
+            self.next_states = torch.zeros(*rollout_shape, shaping_dim, device=self.device)
             self.curiosity_rewards = torch.zeros(rollout_shape, device=self.device)
 
         self.discriminator: GailDiscriminator | None = None
@@ -316,9 +323,9 @@ class PPOCuriosityGail(PPO):
             expert_observations, expert_actions = load_demonstrations(
                 expert_demonstrations, observation_dim, action_dim, expected_observation_config
             )
-            self.expert_observations = expert_observations.to(self.device)
+            self.expert_observations = self._shaping_part(expert_observations.to(self.device))
             self.expert_actions = expert_actions.to(self.device)
-            self.discriminator = GailDiscriminator(observation_dim, action_dim, gail_hidden_dims).to(self.device)
+            self.discriminator = GailDiscriminator(shaping_dim, action_dim, gail_hidden_dims).to(self.device)
             self.discriminator_optimizer = torch.optim.Adam(self.discriminator.parameters(), lr=gail_learning_rate)
             self.gail_rewards = torch.zeros(rollout_shape, device=self.device)
 
@@ -334,12 +341,12 @@ class PPOCuriosityGail(PPO):
         depends on s_t+1 and is therefore zero for done environments; the GAIL reward depends only on (s_t, a_t).
         """
         step = self.storage.step
-        states = self._policy_observation(self.transition.observations)
+        states = self._shaping_observation(self.transition.observations)
         actions = self.transition.actions.clamp(-ACTION_LIMIT, ACTION_LIMIT)
         shaped_rewards = rewards  # Not modified in place: the runner logs the environment reward after this call.
 
         if self.curiosity is not None:
-            next_states = self._policy_observation(obs)
+            next_states = self._shaping_observation(obs)
             not_done = dones == 0
             curiosity_rewards = self.curiosity_strength * self.curiosity.normalized_surprise(
                 states, actions, next_states, not_done
@@ -371,7 +378,7 @@ class PPOCuriosityGail(PPO):
         """
         extra_losses = {}
         if self.curiosity is not None or self.discriminator is not None:
-            states = self._policy_observation(self.storage.observations).flatten(0, 1)
+            states = self._shaping_observation(self.storage.observations).flatten(0, 1)
             actions = self.storage.actions.flatten(0, 1).clamp(-ACTION_LIMIT, ACTION_LIMIT)
         if self.curiosity is not None:
             # Transitions into a reset observation carry no information about the dynamics.
@@ -458,9 +465,13 @@ class PPOCuriosityGail(PPO):
 
     # --- Helpers -----------------------------------------------------------------------------------------------------
 
-    def _policy_observation(self, obs: TensorDict) -> torch.Tensor:
-        """Concatenate the actor's observation groups, the observation the ICM, D and the demonstrations use."""
-        return torch.cat([obs[group] for group in self._raw_actor.obs_groups], dim=-1)
+    def _shaping_observation(self, obs: TensorDict) -> torch.Tensor:
+        """What the ICM and D see of an observation: the actor's observation groups concatenated (the observation
+        the demonstrations record), restricted to ``shaping_columns``."""
+        return self._shaping_part(torch.cat([obs[group] for group in self._raw_actor.obs_groups], dim=-1))
+
+    def _shaping_part(self, observations: torch.Tensor) -> torch.Tensor:
+        return observations if self.shaping_columns is None else observations[..., self.shaping_columns]
 
     def _mini_batch_indices(self, num_samples: int) -> tuple[torch.Tensor, ...]:
         """Shuffled indices split into PPO's number of mini-batches."""
