@@ -956,15 +956,23 @@ class Boustrophedon(Baseline):
         return bool(np.any((ahead > 0) & (ahead < radius + FOLLOW_GAP) & (np.abs(aside) < radius * 1.05)))
 
 
-def record_demonstrations(layout: str, episodes: int, path: str, seed: int = 0, **env_kwargs) -> dict:
+def record_demonstrations(layout: str, episodes: int, path: str, seed: int = 0, action_noise: float = 0.0,
+                          **env_kwargs) -> dict:
     """Run the planner for ``episodes`` episodes and save (observation, action) pairs to ``path``.
-    Returns a summary (steps, mean coverage, success rate)."""
+    Returns a summary (steps, mean coverage, success rate).
+
+    With ``action_noise`` > 0 the env executes the planner's action plus Gaussian noise of that std (clipped to
+    [-1, 1]), while the planner's own action is what is recorded (DART, Laskey et al. 2017). The planner follows its
+    path from the pose it finds, so each episode drifts off the path differently and records how the expert gets
+    back: demonstrations that cover the states around the path. Without noise, the planner in the deterministic env
+    repeats one trajectory in every episode."""
     from cabinbench.envs.coverage_env import CoverageEnv
 
     env = CoverageEnv(layout, **env_kwargs)
     observations, actions, episode_of, records = [], [], [], []
     for episode in range(episodes):
         observation, info = env.reset(seed=seed + episode)
+        noise = np.random.default_rng([seed, episode])
         planner = Boustrophedon()
         planner.reset(EpisodeContext(env.layout, env.world.protocol, seed + episode), observation, info)
         done = False
@@ -973,7 +981,8 @@ def record_demonstrations(layout: str, episodes: int, path: str, seed: int = 0, 
             observations.append(observation)
             actions.append(action)
             episode_of.append(episode)
-            observation, _, terminated, truncated, info = env.step(action)
+            executed = action + noise.normal(0.0, action_noise, 2) if action_noise > 0 else action
+            observation, _, terminated, truncated, info = env.step(executed)
             done = terminated or truncated
         records.append(info["episode_record"])
     np.savez_compressed(path, observations=np.array(observations, dtype=np.float32),

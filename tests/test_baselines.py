@@ -71,6 +71,25 @@ def test_demonstrations_are_recorded_in_the_documented_schema(tmp_path):
     assert np.abs(actions.numpy()).max() <= 1.0
 
 
+def test_noisy_demonstrations_vary_per_episode_and_record_the_planners_own_actions(tmp_path):
+    def record(name: str, action_noise: float) -> dict:
+        record_demonstrations("a320_cell", episodes=2, path=str(tmp_path / name), seed=3, action_noise=action_noise,
+                              max_steps=300)
+        return dict(np.load(tmp_path / name, allow_pickle=False))
+
+    clean, noisy, again = record("clean.npz", 0.0), record("noisy.npz", 0.3), record("again.npz", 0.3)
+    first, second = (noisy["observations"][noisy["episode"] == episode] for episode in (0, 1))
+    assert not np.array_equal(first, second)  # each episode drifts its own way...
+    clean_first, clean_second = (clean["observations"][clean["episode"] == episode] for episode in (0, 1))
+    assert np.array_equal(clean_first, clean_second)  # ...where without noise they repeat one trajectory
+    for name in noisy:
+        np.testing.assert_array_equal(noisy[name], again[name])  # the noise is seeded
+    # The recorded actions are the planner's: they change from step to step by about 0.18 on average (0.11 without
+    # noise); the executed ones, with noise of std 0.3 on top, by about 0.36.
+    jumps = np.abs(np.diff(noisy["actions"][noisy["episode"] == 0], axis=0)).mean()
+    assert jumps < 2 * np.abs(np.diff(clean["actions"][clean["episode"] == 0], axis=0)).mean() + 0.02
+
+
 def test_a_team_of_two_covers_faster_than_one_robot():
     from cabinbench.episodes import run_episode as run_team_episode
 
