@@ -74,6 +74,10 @@ def test_train_interrupt_resume_export_reload_and_evaluate(tmp_path, monkeypatch
         return original_load(self, state, *args, **kwargs)
 
     monkeypatch.setattr(PPOCuriosityGail, "load", recording_load)
+    # A run saved before a config field existed resumes with that field's default.
+    saved = json.loads((run_dir / "config.json").read_text())
+    del saved["demo_action_noise"]
+    (run_dir / "config.json").write_text(json.dumps(saved))
     result = training.train(tiny_config(), run_dir, resume=True, progress=False)
 
     assert loaded == [2]

@@ -435,7 +435,8 @@ def prepare_run_dir(config: TrainConfig, run_dir: Path, resume: bool) -> Path | 
             raise FileExistsError(f"{run_dir} already holds checkpoints (latest {checkpoint.name}); "
                                   "resume it (--resume) or choose another --run-dir")
     elif saved_config_path.exists():
-        saved = json.loads(saved_config_path.read_text())
+        # through TrainConfig: a field added since the run started takes its default, as the resumed run does
+        saved = json.loads(json.dumps(TrainConfig.from_dict(json.loads(saved_config_path.read_text())).to_dict()))
         differences = sorted(key for key, value in config.to_dict().items()
                              if key not in RESUMABLE_CHANGES and saved.get(key) != json.loads(json.dumps(value)))
         if differences:
