@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Regenerate every committed result: the recorded runs, the leaderboard, its figures and the paper.
 # Usage: bash results/make_results.sh   (from the repository root; about half an hour on 2 cores)
+# It scores the policies in the repository; results/train_policies.sh retrains them first, if wanted.
 set -euo pipefail
 rm -rf results/runs results/ablation_runs results/figures
 # Every run is queued as one command line, and the queue runs at the end, one run per core: each run writes
