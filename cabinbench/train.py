@@ -3,7 +3,7 @@
     python -m cabinbench.train --baseline ppo_gail|ppo|ppo_icm|ppo_gail_only
         [--layout NAME ...] [--iterations N] [--num-envs N] [--steps-per-env N] [--seed S]
         [--reward paper|coverage] [--[no-]terminate-on-bound] [--max-steps N] [--algorithm JSON]
-        [--min-action-std X] [--coverage-patch N]
+        [--min-action-std X] [--coverage-patch N] [--[no-]random-start]
         [--threads N] [--save-interval N]
         [--demonstrations FILE.npz ...] [--run-dir DIR] [--resume] [--ship] [--keep] [--no-progress]
 
@@ -55,6 +55,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--min-action-std", type=float, help="lower clamp of the policy's action std")
     parser.add_argument("--coverage-patch", type=int, metavar="N",
                         help="observe an N x N coverage patch (0: lidar and velocity only)")
+    parser.add_argument("--random-start", action=argparse.BooleanOptionalAction, default=None,
+                        help="start each training episode at a random pose of the start cell")
     parser.add_argument("--terminate-on-bound", action=argparse.BooleanOptionalAction, default=None,
                         help="end episodes on a bound contact")
     parser.add_argument("--demonstrations", nargs="+", metavar="FILE", help="expert .npz files instead of recording")
@@ -76,7 +78,7 @@ def build_config(args: argparse.Namespace):
 
     given = {name: getattr(args, name) for name in ("layouts", "iterations", "num_envs", "num_steps_per_env", "seed",
                                                      "reward", "terminate_on_bound", "max_steps", "algorithm", "min_action_std",
-                                                     "coverage_patch",
+                                                     "coverage_patch", "random_start",
                                                      "threads", "save_interval", "demonstrations")
              if getattr(args, name) is not None}
     given["ablation"] = args.baseline

@@ -104,7 +104,8 @@ class World:
         self._no_noise = np.zeros(0)
 
     # ------------------------------------------------------------------------------ reset
-    def reset(self, rng: np.random.Generator) -> None:
+    def reset(self, rng: np.random.Generator, poses: np.ndarray | None = None) -> None:
+        """Start an episode with the robots at ``poses`` ((K, 3): x, y, heading; default ``start_poses``)."""
         self.rng = rng
         layout = self.layout
         self.space = space = pymunk.Space()
@@ -124,7 +125,7 @@ class World:
                 shapes.append(bound)
             self.bound_shapes.append(shapes)
         self.bodies, self.motors = [], []
-        for index, (x, y, heading) in enumerate(self.start_poses):
+        for index, (x, y, heading) in enumerate(self.start_poses if poses is None else poses):
             body = pymunk.Body(ROBOT_MASS, pymunk.moment_for_circle(ROBOT_MASS, 0.0, layout.robot.radius))
             body.position, body.angle = (x, y), heading
             shape = pymunk.Circle(body, layout.robot.radius)
@@ -456,6 +457,14 @@ def _distance_to_segments(point: np.ndarray, segments: np.ndarray) -> float:
     return float(np.hypot(*(starts + t[:, None] * direction - point).T).min())
 
 
+def start_cell_spots(layout: Layout) -> np.ndarray:
+    """(n, 2) centres of the start cell's pixels where a robot may start: free, and reachable from the start."""
+    start_cell = layout.cell_raster[layout.to_pixel(*layout.start[:2])]
+    rows, cols = np.nonzero(layout.centre_free & (layout.cell_raster == start_cell))
+    xs, ys = layout.pixel_centres()
+    return np.column_stack([xs[cols], ys[rows]])
+
+
 def start_poses(layout: Layout, n_robots: int) -> np.ndarray:
     """Distinct valid start poses: the layout's start, then the reachable free spots of the start
     cell nearest to it, at least a robot diameter plus 5 cm apart (deterministic)."""
@@ -463,10 +472,7 @@ def start_poses(layout: Layout, n_robots: int) -> np.ndarray:
     if n_robots == 1:
         return np.array(poses)
     spacing = layout.robot.tool_width + 0.05
-    start_cell = layout.cell_raster[layout.to_pixel(*layout.start[:2])]
-    candidates = np.argwhere(layout.centre_free & (layout.cell_raster == start_cell))
-    xs, ys = layout.pixel_centres()
-    points = np.column_stack([xs[candidates[:, 1]], ys[candidates[:, 0]]])
+    points = start_cell_spots(layout)
     order = np.argsort(np.hypot(*(points - layout.start[:2]).T), kind="stable")
     for point in points[order]:
         if all(np.hypot(point[0] - p[0], point[1] - p[1]) >= spacing for p in poses):

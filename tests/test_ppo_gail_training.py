@@ -235,6 +235,19 @@ def _small_policy(tmp_path, **env_kwargs) -> "os.PathLike":
                          env_config={}, training={})
 
 
+def test_train_cli_options_set_the_training_config(tmp_path):
+    from cabinbench.train import build_config, parse_args
+
+    config, run_dir = build_config(parse_args(["--baseline", "ppo_icm", "--seed", "3", "--iterations", "7",
+                                                "--random-start", "--coverage-patch", "8", "--no-terminate-on-bound",
+                                                "--algorithm", '{"gamma": 0.995}', "--run-dir", str(tmp_path)]))
+    assert (config.ablation, config.seed, config.iterations) == ("ppo_icm", 3, 7)
+    assert config.random_start and config.coverage_patch == 8 and not config.terminate_on_bound
+    assert config.algorithm == {"gamma": 0.995} and run_dir == tmp_path
+    defaults, _ = build_config(parse_args(["--baseline", "ppo"]))
+    assert defaults == training.TrainConfig(ablation="ppo")
+
+
 def test_train_cli_rejects_unknown_baseline():
     completed = subprocess.run([sys.executable, "-m", "cabinbench.train", "--baseline", "nope"],
                                capture_output=True, text=True, timeout=60)

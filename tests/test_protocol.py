@@ -121,3 +121,28 @@ def test_every_bound_the_team_passed_closes_once_all_robots_are_through():
     world.bodies[0].position = tuple(map(float, cell_2_goals[0]))
     move(1, cell_2_goals[1])
     assert bound_closed(0) and bound_closed(1)
+
+
+def test_random_start_draws_a_seeded_pose_where_the_robot_fits_in_the_start_cell():
+    fixed = CoverageEnv("a320_tracking_cell")
+    assert np.array_equal(fixed.reset(seed=5)[1]["pose"], fixed.layout.start)
+
+    env, twin = CoverageEnv("a320_tracking_cell", random_start=True), CoverageEnv("a320_tracking_cell", random_start=True)
+    layout = env.layout
+    start_cell = layout.cell_raster[layout.to_pixel(*layout.start[:2])]
+    poses = []
+    for seed in range(20):
+        pose = env.reset(seed=seed)[1]["pose"]
+        np.testing.assert_array_equal(pose, twin.reset(seed=seed)[1]["pose"])
+        pixel = layout.to_pixel(*pose[:2])
+        assert layout.cell_raster[pixel] == start_cell and layout.centre_free[pixel]
+        poses.append(pose)
+    poses = np.array(poses)
+    assert len(np.unique(poses[:, :2], axis=0)) >= 15 and np.ptp(poses[:, 2]) > 3.0  # spread over the cell and around
+
+    # The same seed gives the same episode from there on.
+    rng = np.random.default_rng(0)
+    for action in rng.uniform(-1, 1, (300, 2)):
+        first, second = env.step(action), twin.step(action)
+        np.testing.assert_array_equal(first[0], second[0])
+        assert first[1:4] == second[1:4]

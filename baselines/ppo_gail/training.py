@@ -90,6 +90,9 @@ class TrainConfig:
     reward, which is negative wherever the agent does not look like the expert, a bound that ends the episode is an
     exit from that penalty: in trial runs the agent learnt to drive into the bound of the tracking cell within ~100
     steps. The contact still costs the preset's bound penalty."""
+    random_start: bool = False
+    """Start each training episode at a random pose of the start cell (``CoverageEnv``'s ``random_start``) rather
+    than at the layout's start. The demonstrations keep the layout's start, where the planner's plan begins."""
     coverage_patch: int = 0
     coverage_patch_cell: float = 0.25
     """The observation's coverage patch (``CoverageEnv``; 0: none, the study's lidar-only observation). With
@@ -150,7 +153,8 @@ class TrainConfig:
     def env_kwargs(self) -> dict:
         """Keyword arguments of every training env (``CoverageEnv``)."""
         return {"reward": self.reward, "terminate_on_bound": self.terminate_on_bound, "max_steps": self.max_steps,
-                "coverage_patch": self.coverage_patch, "coverage_patch_cell": self.coverage_patch_cell}
+                "random_start": self.random_start, "coverage_patch": self.coverage_patch,
+                "coverage_patch_cell": self.coverage_patch_cell}
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -466,7 +470,8 @@ def expert_demonstrations(config: TrainConfig, run_dir: Path) -> list[str]:
         path = folder / f"{Path(layout).stem}.npz"
         if not path.exists():
             temporary = folder / f"{Path(layout).stem}.tmp.npz"
-            env_kwargs = {**config.env_kwargs, "max_steps": config.demo_max_steps or config.max_steps}
+            env_kwargs = {**config.env_kwargs, "max_steps": config.demo_max_steps or config.max_steps,
+                          "random_start": False}
             record_demonstrations(layout, config.demo_episodes, str(temporary), seed=config.seed,
                                   action_noise=config.demo_action_noise, **env_kwargs)
             os.replace(temporary, path)

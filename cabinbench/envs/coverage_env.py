@@ -34,10 +34,15 @@ cell cleared; ``open``: coverage ≥ the layout's ``success_coverage``), or on a
 part of the observation). The last step's info carries ``episode_record``, one value per metric
 of :mod:`cabinbench.metrics`.
 
+**Start**: the layout's start pose; with ``random_start``, a pose drawn from the env's seeded
+generator at each reset: the centre of a random pixel of the start cell where the robot fits and
+that the start reaches, and a uniform heading (for training: from one fixed start a policy can
+learn one route rather than a behaviour).
+
 **Arguments**: ``layout`` (registered name, YAML path or a :class:`~cabinbench.layout.Layout`),
 ``protocol`` (``"sequential"`` or ``"open"``), ``reward``, ``n_rays``, ``lidar_range``,
 ``field_of_view``, ``lidar_noise`` (m, Gaussian), ``coverage_patch`` (cells per side, 0: none),
-``coverage_patch_cell`` (m), ``max_steps``, ``terminate_on_bound``,
+``coverage_patch_cell`` (m), ``max_steps``, ``terminate_on_bound``, ``random_start``,
 ``render_mode`` (``"rgb_array"`` or ``"human"``).
 """
 
@@ -55,7 +60,7 @@ from ..lidar import LidarConfig
 from ..metrics import EpisodeTracker
 from ..render import EnvRenderer
 from ..rewards import REWARD_PRESETS, reward
-from ..world import World
+from ..world import World, start_cell_spots
 
 
 OBSERVATION_SETTINGS = ("n_rays", "lidar_range", "field_of_view", "coverage_patch", "coverage_patch_cell")
@@ -90,13 +95,15 @@ class CoverageEnv(gym.Env):
     def __init__(self, layout: str | Layout = "a320_cell", protocol: str = "sequential", reward: str = "paper",
                  n_rays: int = 64, lidar_range: float = 3.5, field_of_view: float = 2 * math.pi,
                  lidar_noise: float = 0.0, coverage_patch: int = 0, coverage_patch_cell: float = 0.25,
-                 max_steps: int | None = None, terminate_on_bound: bool = False, render_mode: str | None = None):
+                 max_steps: int | None = None, terminate_on_bound: bool = False, random_start: bool = False,
+                 render_mode: str | None = None):
         self.layout = layout if isinstance(layout, Layout) else load_layout(layout)
         lidar = LidarConfig(n_rays, lidar_range, field_of_view, lidar_noise)
         self.world = World(self.layout, 1, protocol, lidar, CoveragePatch(coverage_patch, coverage_patch_cell))
         if reward not in REWARD_PRESETS:
             raise ValueError(f"unknown reward preset {reward!r}; choose one of {REWARD_PRESETS}")
         self.reward_preset, self.terminate_on_bound = reward, terminate_on_bound
+        self.start_spots = start_cell_spots(self.layout) if random_start else None
         self.max_steps = max_steps or self.layout.max_steps
         self.render_mode = render_mode
         self.observation_space = observation_space(self.world.observation_size)
@@ -109,7 +116,11 @@ class CoverageEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        self.world.reset(self.np_random)
+        start = None
+        if self.start_spots is not None:
+            x, y = self.start_spots[self.np_random.integers(len(self.start_spots))]
+            start = np.array([[x, y, self.np_random.uniform(-math.pi, math.pi)]])
+        self.world.reset(self.np_random, start)
         self.tracker = EpisodeTracker(self.world)
         if self.render_mode == "human":
             self.render()
