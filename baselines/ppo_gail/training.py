@@ -93,10 +93,10 @@ class TrainConfig:
     random_start: bool = False
     """Start each training episode at a random pose of the start cell (``CoverageEnv``'s ``random_start``) rather
     than at the layout's start. The demonstrations keep the layout's start, where the planner's plan begins.
-    Not the default yet: measured with ``coverage_patch=16`` (seed 0 unless said, 20 ``a320_cell`` / 6 ``full_cabin``
-    episodes), plain ppo seed 0 covered 0.76 of ``a320_cell`` (success 1.0, 47 s) and cleared all 10 ``full_cabin``
-    cells in every episode (0.89), but seed 1 cleared 2.7 (0.32); ppo_gail_only cleared 9.0 (0.81) and ppo_gail
-    none. Without the patch, ppo_gail_only cleared 9.8 (0.89) and covered 0.40 of ``a320_cell``."""
+    Not the default: measured with ``coverage_patch=16`` (20 ``a320_cell`` / 6 ``full_cabin`` episodes), plain ppo
+    seeds 0-3 covered 0.76, 0.67, 0.74 and 0.83 of ``a320_cell`` (success 1.0, 1.0, 1.0, 0.85), but cleared 10,
+    2.7, 2.2 and 0.8 ``full_cabin`` cells; ppo_gail_only seeds 0-1 cleared 9.0 and 1.0, ppo_gail seed 0 none.
+    Without the patch, ppo_gail_only seed 0 cleared 9.8 and covered 0.40 of ``a320_cell``."""
     coverage_patch: int = 0
     coverage_patch_cell: float = 0.25
     """The observation's coverage patch (``CoverageEnv``; 0: none, the study's lidar-only observation). With
