@@ -2,8 +2,9 @@
 # Train every learned policy the committed results use, with the default training config: the four ablations at
 # seed 0 (installed with --ship, the leaderboard's policies) and at seeds 1 and 2 (kept with --keep, the ablation
 # table's). Training is deterministic on a CPU: the same code reproduces the committed policies and training records.
-# Usage: bash results/train_policies.sh [SEED ...]   (from the repository root; default seeds 0 1 2; about 70 minutes
-# on 2 cores for all twelve runs), then bash results/make_results.sh to score them.
+# Usage: bash results/train_policies.sh [SEED ...]   (from the repository root; default seeds 0 1 2; the four runs of
+# one seed took 32 minutes on 2 cores, so all twelve take about an hour and a half), then
+# bash results/make_results.sh to score them.
 set -euo pipefail
 seeds=${*:-0 1 2}
 runs=runs/train_policies  # this script's own run directories, started afresh
