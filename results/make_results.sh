@@ -1,9 +1,22 @@
 #!/usr/bin/env bash
 # Regenerate every committed result: the recorded runs, the leaderboard, its figures and the paper.
-# Usage: bash results/make_results.sh   (from the repository root; about half an hour on 2 cores)
+# Usage: bash results/make_results.sh [learned]   (from the repository root; about half an hour on 2 cores)
 # It scores the policies in the repository; results/train_policies.sh retrains them first, if wanted.
+# With `learned`, only the learned baselines are played again (after retraining them): the records of the classic
+# baselines are kept, since nothing they depend on changed.
 set -euo pipefail
-rm -rf results/runs results/ablation_runs results/figures
+learned_baselines="ppo_gail ppo ppo_icm ppo_gail_only"
+if [ $# -gt 1 ] || { [ $# = 1 ] && [ "$1" != learned ]; }; then
+  echo "usage: bash results/make_results.sh [learned]" >&2
+  exit 2
+elif [ $# = 1 ]; then
+  classic=false
+  for baseline in $learned_baselines; do rm -f results/runs/*__"$baseline"__*; done
+else
+  classic=true
+  rm -rf results/runs
+fi
+rm -rf results/ablation_runs results/figures
 # Every run is queued as one command line, and the queue runs at the end, one run per core: each run writes
 # files of its own, and the leaderboard orders episodes by seed, not by when they finished.
 queue=$(mktemp)
@@ -13,28 +26,30 @@ runs() { local seeds=$1 episodes=$2 out=$3 arguments; shift 3; printf -v argumen
 # 20 episodes per setting: 5 runs (seeds 0, 100, ..., 400) of 4 episodes (episode i uses seed + i)
 run() { runs "0 100 200 300 400" 4 "${OUT:-results/runs}" "$@"; }
 
-# Classic baselines on the four cabin layouts, both protocols.
-for layout in a320_cell shape_changed b777_3col full_cabin; do
-  for protocol in sequential open; do
-    for baseline in random_bounce boustrophedon; do
-      run --baseline "$baseline" --layout "$layout" --protocol "$protocol"
-    done
-  done
-done
-
-# Teams: K = 1, 2, 4 on the two large layouts (K = 1 is recorded above); the planner in both protocols.
-team_run() { runs "0 100" 5 results/runs "$@"; }
-for layout in full_cabin b777_3col; do
-  for agents in 2 4; do
-    team_run --agents "$agents" --baseline random_bounce --layout "$layout" --protocol sequential
+if $classic; then
+  # Classic baselines on the four cabin layouts, both protocols.
+  for layout in a320_cell shape_changed b777_3col full_cabin; do
     for protocol in sequential open; do
-      team_run --agents "$agents" --baseline boustrophedon --layout "$layout" --protocol "$protocol"
+      for baseline in random_bounce boustrophedon; do
+        run --baseline "$baseline" --layout "$layout" --protocol "$protocol"
+      done
     done
   done
-done
+
+  # Teams: K = 1, 2, 4 on the two large layouts (K = 1 is recorded above); the planner in both protocols.
+  team_run() { runs "0 100" 5 results/runs "$@"; }
+  for layout in full_cabin b777_3col; do
+    for agents in 2 4; do
+      team_run --agents "$agents" --baseline random_bounce --layout "$layout" --protocol sequential
+      for protocol in sequential open; do
+        team_run --agents "$agents" --baseline boustrophedon --layout "$layout" --protocol "$protocol"
+      done
+    done
+  done
+fi
 
 # Learned policies (shipped checkpoints), zero-shot on all but the training cell.
-for baseline in ppo_gail ppo ppo_icm ppo_gail_only; do
+for baseline in $learned_baselines; do
   if [ -f "baselines/ppo_gail/checkpoints/$baseline.pt" ]; then
     for layout in a320_cell shape_changed b777_3col full_cabin; do
       run --baseline "$baseline" --layout "$layout" --protocol sequential
