@@ -5,8 +5,10 @@ in its config, e.g. ``--config '{"checkpoint": "runs/train/ppo_gail__seed0/polic
 trained on observations shaped like the env's, and samples its actions from the trained Gaussian policy
 (mean + action_std * noise, clipped to [-1, 1]), with a generator seeded by the episode seed and the robot's index,
 so episodes stay reproducible. Sampling is the default, as in ML-Agents' inference that the seed used: a memoryless
-policy acting deterministically in a deterministic env loops forever in the same place (measured: the mean-action
-ppo_gail clears 1 of 10 full_cabin cells, the sampled one about 9). ``stochastic=False`` takes the mean action.
+policy acting deterministically in a deterministic env can loop forever in the same place (measured with an earlier,
+lidar-only ppo_gail: its mean action cleared 1 of 10 full_cabin cells, sampling about 9; the shipped ppo_gail, which
+also sees the coverage patch, clears 9 with its mean action and all 10 sampled). ``stochastic=False`` takes the mean
+action.
 
 A policy file is small (a few hundred KB) and loads with ``torch.load(path, weights_only=True)``: a dict of plain
 values and tensors, written by ``export_policy`` at the end of training (``baselines.ppo_gail.training``)::
