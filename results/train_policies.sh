@@ -4,7 +4,7 @@
 # table's). Training is deterministic on a CPU: the same code reproduces the committed policies and training records.
 # Usage: bash results/train_policies.sh [SEED ...]   (from the repository root; default seeds 0 1 2; the four runs of
 # one seed take about half an hour on 2 cores, so all twelve take about an hour and a half), then
-# bash results/make_results.sh to score them.
+# bash results/make_results.sh learned to score them.
 set -euo pipefail
 seeds=${*:-0 1 2}
 runs=runs/train_policies  # this script's own run directories, started afresh
