@@ -303,15 +303,18 @@ def makespan_figure(groups: list[tuple[dict, pd.DataFrame]], path: Path) -> bool
 
 
 def training_figures(training: Path, folder: Path) -> list[Path]:
-    """``training__<baseline>.png`` for every ``<training>/<baseline>/metrics.csv``."""
+    """``training__<baseline>.png`` for every ``<training>/<baseline>/metrics.csv`` (with its ``validation.csv``, if
+    any)."""
     from baselines.ppo_gail.training import plot_curves, read_metrics
 
     written = []
     for metrics in sorted(training.glob("*/metrics.csv")):
         config = json.loads((metrics.parent / "config.json").read_text(encoding="utf-8"))
         path = folder / f"training__{safe_name(metrics.parent.name)}.png"
+        validation = metrics.parent / "validation.csv"
         plot_curves(read_metrics(metrics), path, title=f"{config['ablation']} on {' + '.join(config['layouts'])}, "
-                                                       f"seed {config['seed']}: training curves")
+                                                       f"seed {config['seed']}: training curves",
+                    validation=read_metrics(validation) if validation.exists() else None)
         written.append(path)
     return written
 

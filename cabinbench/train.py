@@ -4,7 +4,7 @@
         [--layout NAME ...] [--iterations N] [--num-envs N] [--steps-per-env N] [--seed S]
         [--reward paper|coverage] [--[no-]terminate-on-bound] [--max-steps N] [--algorithm JSON]
         [--min-action-std X] [--coverage-patch N] [--[no-]random-start]
-        [--threads N] [--save-interval N]
+        [--threads N] [--save-interval N] [--validation-episodes N] [--export last|best]
         [--demonstrations FILE.npz ...] [--run-dir DIR] [--resume] [--ship] [--keep] [--no-progress]
 
 Options not given take the defaults of ``baselines.ppo_gail.training.TrainConfig`` (the shipped policies'
@@ -12,10 +12,13 @@ configuration; with ``--layout`` repeated, one policy trains on all of them, by 
 ``a320_tracking_cell``). The run lives in ``--run-dir`` (default ``runs/train/<baseline>__seed<S>``): config,
 demonstrations, checkpoints, ``metrics.csv``, ``curves.png`` and the exported ``policy.pt``. ``--resume`` continues
 an interrupted run from its latest checkpoint, with the saved config (``--iterations`` may raise the total).
+At the end every checkpoint's policy plays ``--validation-episodes`` episodes (default 20) on each training layout
+(``validation.csv`` in the run directory); ``--export best`` exports the checkpoint that did best there instead of
+the last (see ``TrainConfig.export`` for why the last is the default).
 ``--ship`` copies the exported policy to ``baselines/ppo_gail/checkpoints/<baseline>.pt``, where
-``python -m cabinbench.run --baseline <baseline>`` finds it, and the run's ``config.json`` and ``metrics.csv`` to
+``python -m cabinbench.run --baseline <baseline>`` finds it, and the run's ``config.json``, ``metrics.csv`` and ``validation.csv`` to
 ``results/training/<baseline>/``, from which ``python -m cabinbench.leaderboard`` draws the committed training curves.
-``--keep`` copies the policy, ``config.json`` and ``metrics.csv`` to ``results/training/<baseline>/seed<S>/``: a
+``--keep`` copies the policy, ``config.json``, ``metrics.csv`` and ``validation.csv`` to ``results/training/<baseline>/seed<S>/``: a
 further training run of the same command, which ``results/make_results.sh`` scores into ``results/ablation.md``.
 
 Exit status: 0 done; 2 bad arguments (an unknown baseline: the valid ones are printed) or a run directory that
@@ -50,6 +53,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--max-steps", type=int, help="episode step limit (default: each layout's)")
     parser.add_argument("--threads", type=int, help="torch threads")
     parser.add_argument("--save-interval", type=int, help="checkpoint every N iterations")
+    parser.add_argument("--validation-episodes", type=int, metavar="N",
+                        help="episodes per training layout on which every checkpoint is validated (0: none)")
+    parser.add_argument("--export", choices=("last", "best"), help="export the last checkpoint or the best validated")
     parser.add_argument("--algorithm", type=json.loads, metavar="JSON",
                         help='further algorithm settings, e.g. \'{"gail_strength": 0.1, "entropy_coef": 0.02}\'')
     parser.add_argument("--min-action-std", type=float, help="lower clamp of the policy's action std")
@@ -79,7 +85,8 @@ def build_config(args: argparse.Namespace):
     given = {name: getattr(args, name) for name in ("layouts", "iterations", "num_envs", "num_steps_per_env", "seed",
                                                      "reward", "terminate_on_bound", "max_steps", "algorithm", "min_action_std",
                                                      "coverage_patch", "random_start",
-                                                     "threads", "save_interval", "demonstrations")
+                                                     "threads", "save_interval", "validation_episodes", "export",
+                                                     "demonstrations")
              if getattr(args, name) is not None}
     given["ablation"] = args.baseline
     run_dir = Path(args.run_dir) if args.run_dir else default_run_dir(TrainConfig(**given))
@@ -129,21 +136,28 @@ def main(argv: list[str] | None = None) -> int:
     summary = result.summary
     print(f"done: {result.iterations} iterations, {summary['timesteps']} steps, {result.train_time / 60:.1f} min of "
           f"training; last iterations: coverage {summary['final_coverage']}, success {summary['final_success']}")
-    print(f"policy: {result.policy_path}\ncurves: {result.run_dir / 'curves.png'}\n"
-          f"metrics: {result.run_dir / 'metrics.csv'}")
+    print(f"policy: {result.policy_path} (the checkpoint of iteration {summary['exported_iteration']}, "
+          f"--export {config.export})\ncurves: {result.run_dir / 'curves.png'}\nmetrics: {result.run_dir / 'metrics.csv'}")
+    if config.validation_episodes:
+        print(f"validation of every checkpoint: {result.run_dir / 'validation.csv'}")
     if args.ship:
         shipped = CHECKPOINT_DIR / f"{config.ablation}.pt"
         copy_file(result.policy_path, shipped)
         records = TRAINING_RECORDS / config.ablation
-        for name in ("config.json", "metrics.csv"):
+        for name in training_records(config):
             copy_file(result.run_dir / name, records / name)
         print(f"shipped: {shipped}; training records: {records}")
     if args.keep:
         kept = TRAINING_RECORDS / config.ablation / f"seed{config.seed}"
-        for name in ("policy.pt", "config.json", "metrics.csv"):
+        for name in ("policy.pt", *training_records(config)):
             copy_file(result.run_dir / name, kept / name)
         print(f"kept: {kept} (score it with the loop in results/make_results.sh)")
     return 0
+
+
+def training_records(config) -> tuple[str, ...]:
+    """The files of a run that ``--ship`` and ``--keep`` keep beside its policy."""
+    return ("config.json", "metrics.csv", *(("validation.csv",) if config.validation_episodes else ()))
 
 
 def copy_file(source: Path, target: Path) -> None:

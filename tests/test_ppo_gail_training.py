@@ -6,6 +6,7 @@ own inference policy, the errors of bad policy files, and the CLI's usage errors
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import subprocess
@@ -29,7 +30,8 @@ SHIPPED = ("ppo_gail", "ppo", "ppo_icm", "ppo_gail_only")
 
 def tiny_config(**overrides) -> training.TrainConfig:
     settings = dict(ablation="ppo_gail", layouts=["a320_cell"], num_envs=8, num_steps_per_env=16, iterations=3,
-                    max_steps=30, demo_episodes=2, save_interval=2, threads=1, hidden_dims=[32, 32])
+                    max_steps=30, demo_episodes=2, save_interval=2, threads=1, hidden_dims=[32, 32],
+                    validation_episodes=2)
     return training.TrainConfig(**{**settings, **overrides})
 
 
@@ -80,7 +82,8 @@ def test_train_interrupt_resume_export_reload_and_evaluate(tmp_path, monkeypatch
     (run_dir / "config.json").write_text(json.dumps(saved))
     result = training.train(tiny_config(), run_dir, resume=True, progress=False)
 
-    assert loaded == [2]
+    assert loaded == [2, 2, 3, 3]  # resumed from 2; each checkpoint validated; the last one exported
+    assert read_policy_file(result.policy_path)["training"]["exported_iteration"] == 3
     assert not result.interrupted and result.iterations == 3
     rows = training.read_metrics(run_dir / "metrics.csv")
     assert [row["iteration"] for row in rows] == ["1", "2", "3"]
@@ -105,6 +108,61 @@ def test_train_interrupt_resume_export_reload_and_evaluate(tmp_path, monkeypatch
                                      config={"checkpoint": str(result.policy_path)})
     assert record["steps"] == 40 and len(trajectory["positions"]) == 41
     assert record["path_length"] > 0
+
+
+def test_every_checkpoint_is_validated_and_the_last_or_the_best_exported(tmp_path, monkeypatch):
+    """Every checkpoint plays the validation episodes (seeds apart from the leaderboard's) on every training layout.
+    Ctrl-C during validation keeps the finished rows, and a resumed run plays only the checkpoints not yet validated.
+    policy.pt is the last checkpoint's actor, or with export="best" (which a finished run may be resumed to change)
+    the best validated one's."""
+    from cabinbench import episodes
+
+    run_dir = tmp_path / "run"
+    config = tiny_config(ablation="ppo", layouts=["a320_cell", "a320_tracking_cell"], iterations=4, save_interval=1,
+                         validation_episodes=2)
+    played, original = [], episodes.run_episode
+
+    def recording_run_episode(baseline, layout, seed, **kwargs):
+        played.append((layout.name, seed))
+        if len(played) == 9:  # the first episode of the third checkpoint
+            raise KeyboardInterrupt
+        return original(baseline, layout, seed, **kwargs)
+
+    monkeypatch.setattr(episodes, "run_episode", recording_run_episode)
+    interrupted = training.train(config, run_dir, progress=False)
+    assert interrupted.interrupted and interrupted.iterations == 4 and interrupted.policy_path is None
+    rows = training.read_metrics(run_dir / "validation.csv")
+    assert [(row["iteration"], row["layout"]) for row in rows] == [
+        ("1", "a320_cell"), ("1", "a320_tracking_cell"), ("2", "a320_cell"), ("2", "a320_tracking_cell")]
+    seeds = [training.VALIDATION_SEED, training.VALIDATION_SEED + 1]
+    assert played[:4] == [("a320_cell", seed) for seed in seeds] + [("a320_tracking_cell", seed) for seed in seeds]
+
+    played.clear()
+    result = training.train(config, run_dir, resume=True, progress=False)
+    assert len(played) == 2 * 2 * 2  # checkpoints 3 and 4 only
+    rows = training.read_metrics(run_dir / "validation.csv")
+    assert [row["iteration"] for row in rows] == ["1", "1", "2", "2", "3", "3", "4", "4"]
+    assert all(row["episodes"] == "2" and 0 < float(row["coverage"]) <= 1 for row in rows)
+    assert read_policy_file(result.policy_path)["training"]["exported_iteration"] == 4
+    assert _same_actor(result.policy_path, run_dir / "validation" / "policy_000004.pt")
+    assert (run_dir / "curves.png").stat().st_size > 10_000
+
+    played.clear()
+    result = training.train(dataclasses.replace(config, export="best"), run_dir, resume=True, progress=False)
+    assert not played  # every checkpoint is validated already
+    scores = {iteration: training.validation_score([row for row in rows if row["iteration"] == str(iteration)])
+              for iteration in range(1, 5)}
+    best = max(scores, key=lambda iteration: (scores[iteration], iteration))
+    assert training.best_checkpoint(rows) == (best, scores[best])
+    assert read_policy_file(result.policy_path)["training"]["exported_iteration"] == best
+    assert _same_actor(result.policy_path, run_dir / "validation" / f"policy_{best:06d}.pt")
+    other = next(iteration for iteration in scores if iteration != best)
+    assert not _same_actor(result.policy_path, run_dir / "validation" / f"policy_{other:06d}.pt")
+
+
+def _same_actor(path, other_path) -> bool:
+    actor, other = read_policy_file(path)["actor"]["state_dict"], read_policy_file(other_path)["actor"]["state_dict"]
+    return all(torch.equal(actor[key], other[key]) for key in actor)
 
 
 def test_training_with_a_coverage_patch_keeps_it_from_the_icm_and_the_discriminator(tmp_path):
@@ -273,8 +331,8 @@ def test_shipped_policy_loads_and_acts(name):
 
 
 def test_ship_installs_the_policy_and_keeps_its_training_records(tmp_path, monkeypatch):
-    """``train --ship``: the policy lands where ``run --baseline`` finds it, and the run's config and metrics land in
-    results/training/, from which the leaderboard draws the committed training curve."""
+    """``train --ship``: the policy lands where ``run --baseline`` finds it, and the run's config, metrics and
+    validation land in results/training/, from which the leaderboard draws the committed training curve."""
     from baselines.ppo_gail import policy
     from cabinbench import leaderboard
     from cabinbench.train import main as train_main
@@ -287,6 +345,7 @@ def test_ship_installs_the_policy_and_keeps_its_training_records(tmp_path, monke
     assert read_policy_file(tmp_path / "checkpoints" / "ppo.pt")["ablation"] == "ppo"
     records = tmp_path / "results" / "training" / "ppo"
     assert len(training.read_metrics(records / "metrics.csv")) == 2
+    assert [row["iteration"] for row in training.read_metrics(records / "validation.csv")] == ["2"]  # the one checkpoint
     # --keep: a further training seed's policy and records, beside the shipped run's
     status = train_main(["--baseline", "ppo", "--layout", "a320_cell", "--iterations", "1", "--num-envs", "4",
                          "--steps-per-env", "8", "--max-steps", "20", "--run-dir", "run3", "--seed", "3", "--keep",
@@ -295,5 +354,6 @@ def test_ship_installs_the_policy_and_keeps_its_training_records(tmp_path, monke
     kept = records / "seed3"
     assert read_policy_file(kept / "policy.pt")["ablation"] == "ppo" and json.loads((kept / "config.json").read_text())["seed"] == 3
     assert len(training.read_metrics(kept / "metrics.csv")) == 1
+    assert len(training.read_metrics(kept / "validation.csv")) == 1
     figures = leaderboard.training_figures(tmp_path / "results" / "training", tmp_path)
     assert [path.name for path in figures] == ["training__ppo.png"] and figures[0].stat().st_size > 10_000

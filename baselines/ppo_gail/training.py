@@ -14,14 +14,19 @@ Read top to bottom:
    files), builds ``RslRlVecEnv(BatchedCoverageEnv(...))`` and rsl-rl's ``OnPolicyRunner`` with the
    ``PPOCuriosityGail`` algorithm, then runs ``runner.learn(1)`` once per iteration under a tqdm bar; after each
    iteration it appends a row to ``metrics.csv``, every ``save_interval`` iterations it writes a checkpoint
-   (atomically), and at the end it draws ``curves.png`` and exports the small shipped policy ``policy.pt``.
-3. Interrupted runs (Ctrl-C, a crash) keep every finished checkpoint; ``train(..., resume=True)`` continues from the
-   latest one: same weights, optimisers, normalisers, ICM and discriminator, and the iteration count goes on. The
-   environments restart their episodes (their physics state is not saved).
+   (atomically), and at the end it draws ``curves.png``.
+3. ``validate_checkpoints``: every checkpoint's policy plays ``validation_episodes`` episodes on each training
+   layout, with seeds the leaderboard does not use (``validation.csv``); then the last checkpoint (or, with
+   ``export="best"``, the best on validation) is exported as the small shipped policy ``policy.pt``.
+4. Interrupted runs (Ctrl-C, a crash) keep every finished checkpoint and validation row; ``train(..., resume=True)``
+   continues from the latest checkpoint: same weights, optimisers, normalisers, ICM and discriminator, and the
+   iteration count goes on. The environments restart their episodes (their physics state is not saved).
 
 The run directory holds ``config.json``, ``demos/<layout>.npz``, ``checkpoints/model_<iteration>.pt`` (full rsl-rl
-checkpoints: actor, critic, optimisers, ICM, discriminator), ``metrics.csv``, ``curves.png``, ``policy.pt`` (the
-exported actor, see ``baselines.ppo_gail.policy``) and ``rsl_rl.log`` (what rsl-rl prints while building the models).
+checkpoints: actor, critic, optimisers, ICM, discriminator), ``metrics.csv``, ``curves.png``,
+``validation/policy_<iteration>.pt`` (each checkpoint's actor), ``validation.csv`` (their validation episodes),
+``policy.pt`` (the exported actor, see ``baselines.ppo_gail.policy``) and ``rsl_rl.log`` (what rsl-rl prints while
+building the models).
 
 The runner is built with ``log_dir=None`` and its logger is replaced by ``TrainingLog``: rsl-rl's own logger would
 write TensorBoard files and a full checkpoint at the end of every ``learn`` call (non-atomically); ``TrainingLog``
@@ -30,8 +35,9 @@ takes the same calls from the runner and turns them into one CSV row per iterati
 The shipped policies (``baselines/ppo_gail/checkpoints``) come from ``python -m cabinbench.train --baseline NAME
 --ship`` with the defaults below: 800 iterations x 64 envs x 64 steps = 3.3 M steps, seed 0. On the 2-core
 development machine, each with another training run beside it, ppo_gail trained in 21 minutes, ppo_icm in 18-19,
-ppo_gail_only in 12-14 and ppo in 8 (seeds 0-2). ``--ship`` also keeps each run's ``config.json`` and
-``metrics.csv`` in ``results/training/``, from which the leaderboard draws the training curves. Training is
+ppo_gail_only in 12-14 and ppo in 8 (seeds 0-2); validating their checkpoints took 2-5 minutes more per run.
+``--ship`` also keeps each run's ``config.json``, ``metrics.csv`` and ``validation.csv`` in ``results/training/``,
+from which the leaderboard draws the training curves. Training is
 deterministic on a CPU (seeded, one torch thread, envs seeded per index): ``results/train_policies.sh`` retrains all
 twelve policies of the results (four ablations, seeds 0-2). Run on this machine with the previous defaults, it
 reproduced the four shipped policies' weights and training records exactly (all but the timings), and the first 50
@@ -141,6 +147,17 @@ class TrainConfig:
     """Existing demonstration ``.npz`` files to use instead of recording new ones."""
     save_interval: int = 50
     """Write a checkpoint every this many iterations (and after the last one)."""
+    validation_episodes: int = 20
+    """Episodes per training layout on which every checkpoint's policy is played at the end of training, as the
+    leaderboard plays them but with seeds from ``VALIDATION_SEED``: ``validation.csv`` and panel (g) of
+    ``curves.png`` (0: no validation). On ppo_gail seed 0 they show how much a policy's score swings between
+    checkpoints 50 iterations apart: on ``a320_cell``, coverage 0.71-0.83 and success 0.05-0.95 from iteration 300 on."""
+    export: str = "last"
+    """Which checkpoint ``policy.pt`` holds: "last", or "best" on the validation episodes (``validation_score``).
+    "last", because the training cells do not predict transfer: ppo_gail seed 0's best checkpoint on validation
+    (iteration 350: ``a320_cell`` coverage 0.83, success 0.85; tracking cell 0.53 / 1.0) cleared 5.75 of the 10
+    ``full_cabin`` cells (4 episodes), where its last (0.71 / 0.90; 0.52 / 1.0) clears all 10. In two other runs
+    (ppo_gail seed 1, ppo seed 0) the best checkpoint and the last both cleared 9.75-10 cells."""
     threads: int = 1
     """torch threads. 1: on a 2-core machine shared with other work, 2 threads fell from 0.8 s to 20 s per iteration
     as soon as another process took a core (the threads spin waiting for each other); 1 thread ran at ~1 s."""
@@ -153,6 +170,12 @@ class TrainConfig:
         for name in ("num_envs", "num_steps_per_env", "iterations", "save_interval", "threads"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
+        if self.validation_episodes < 0:
+            raise ValueError(f"validation_episodes must be 0 or more, got {self.validation_episodes}")
+        if self.export not in ("last", "best"):
+            raise ValueError(f'export must be "last" or "best", got {self.export!r}')
+        if self.export == "best" and not self.validation_episodes:
+            raise ValueError('export="best" chooses on the validation episodes: validation_episodes must be positive')
         if self.uses_gail and not self.demonstrations and self.demo_episodes < 1:
             raise ValueError(f"{self.ablation} learns from demonstrations: demo_episodes must be positive")
 
@@ -179,11 +202,13 @@ class TrainConfig:
         return cls(**values)
 
 
-RESUMABLE_CHANGES = ("iterations", "threads", "save_interval")
-"""Fields a resumed run may change (e.g. train further); any other difference to the saved config is an error."""
+RESUMABLE_CHANGES = ("iterations", "threads", "save_interval", "export")
+"""Fields a resumed run may change (e.g. train further, or export another checkpoint); any other difference to the
+saved config is an error."""
 
 CONFIG_FILE, METRICS_FILE, CURVES_FILE, POLICY_FILE = "config.json", "metrics.csv", "curves.png", "policy.pt"
-CHECKPOINT_DIR, DEMO_DIR = "checkpoints", "demos"
+VALIDATION_FILE = "validation.csv"
+CHECKPOINT_DIR, DEMO_DIR, VALIDATION_DIR = "checkpoints", "demos", "validation"
 
 
 def default_run_dir(config: TrainConfig, root: str | os.PathLike = "runs/train") -> Path:
@@ -340,6 +365,13 @@ def save_checkpoint(runner, run_dir: Path, iteration: int, config: TrainConfig, 
     return path
 
 
+def load_checkpoint(runner, path: Path) -> dict:
+    """Restore the algorithm's full state from a checkpoint of ``save_checkpoint``; returns the checkpoint."""
+    state = torch.load(path, weights_only=True, map_location="cpu")
+    runner.alg.load(state, load_cfg=None, strict=True)
+    return state
+
+
 # ---------------------------------------------------------------------------------------------------------------------
 # 4. The training loop
 # ---------------------------------------------------------------------------------------------------------------------
@@ -403,8 +435,7 @@ def train(config: TrainConfig, run_dir: str | os.PathLike | None = None, resume:
 
     iteration, train_time = 0, 0.0
     if checkpoint is not None:
-        state = torch.load(checkpoint, weights_only=True, map_location="cpu")
-        runner.alg.load(state, load_cfg=None, strict=True)
+        state = load_checkpoint(runner, checkpoint)
         iteration, train_time = int(state["iter"]), float(state["infos"]["train_time"])
     metrics = MetricsFile(run_dir / METRICS_FILE, keep_until=iteration)
 
@@ -430,17 +461,31 @@ def train(config: TrainConfig, run_dir: str | os.PathLike | None = None, resume:
 
     rows = read_metrics(run_dir / METRICS_FILE)
     summary = training_summary(rows, config, train_time)
+
+    def export(path: Path, training: dict) -> Path:
+        return export_policy(runner, path, ablation=config.ablation, observation_config=obs_config,
+                             env_config={"layouts": config.layouts, **config.env_kwargs}, training=training)
+
+    if not interrupted and config.validation_episodes:
+        try:
+            validate_checkpoints(runner, config, run_dir, lambda path: export(path, summary))
+        except KeyboardInterrupt:
+            interrupted = True
+    validation = read_validation(run_dir, config)
     if rows:
-        plot_curves(rows, run_dir / CURVES_FILE, title=f"{config.ablation} on {' + '.join(config.layouts)}")
+        plot_curves(rows, run_dir / CURVES_FILE, title=f"{config.ablation} on {' + '.join(config.layouts)}",
+                    validation=validation)
     if interrupted:
         last = latest_checkpoint(run_dir)
-        print(f"interrupted at iteration {iteration}: checkpoints kept up to {last.name if last else 'none'}; "
+        print(f"interrupted at iteration {iteration}: checkpoints kept up to {last.name if last else 'none'}"
+              f"{' (all trained; validating them)' if iteration >= config.iterations else ''}; "
               f"continue with --resume --run-dir {run_dir}", file=sys.stderr)
         return TrainResult(run_dir, None, iteration, train_time, summary, interrupted=True)
 
-    policy_path = run_dir / POLICY_FILE
-    export_policy(runner, policy_path, ablation=config.ablation, observation_config=obs_config,
-                  env_config={"layouts": config.layouts, **config.env_kwargs}, training=summary)
+    exported = best_checkpoint(validation)[0] if config.export == "best" else iteration
+    load_checkpoint(runner, checkpoint_path(run_dir, exported))  # validation left another one loaded
+    summary["exported_iteration"] = exported
+    policy_path = export(run_dir / POLICY_FILE, summary)
     return TrainResult(run_dir, policy_path, iteration, train_time, summary)
 
 
@@ -527,7 +572,79 @@ def _postfix(row: dict) -> dict:
 
 
 # ---------------------------------------------------------------------------------------------------------------------
-# 5. Training curves (the seed's Fig. 5.8)
+# 5. Validation of every checkpoint on the training layouts
+# ---------------------------------------------------------------------------------------------------------------------
+
+VALIDATION_SEED = 1_000_000
+"""Validation episode ``i`` uses seed ``VALIDATION_SEED + i``: not a seed the leaderboard plays (0-403,
+``results/make_results.sh``), so a policy is never judged (or, with ``export="best"``, chosen) on the episodes it is
+scored on."""
+VALIDATION_COLUMNS = ("iteration", "layout", "episodes", "coverage", "success", "cells_cleared", "time")
+"""``validation.csv``: one row per checkpoint and training layout, the means over its validation episodes."""
+
+
+def validation_score(rows: list[dict]) -> float:
+    """A checkpoint's validation score: success rate + coverage, averaged over the training layouts. Both, because an
+    episode ends at success: a policy that never finishes may cover more by wandering until the step limit, and one
+    that finishes early may leave floor uncleaned."""
+    return float(np.mean([float(row["success"]) + float(row["coverage"]) for row in rows]))
+
+
+def best_checkpoint(validation: list[dict]) -> tuple[int, float]:
+    """(iteration, score) of the checkpoint with the best ``validation_score`` in ``validation.csv``'s rows (the later
+    one on a tie)."""
+    scores = {iteration: validation_score([row for row in validation if int(row["iteration"]) == iteration])
+              for iteration in {int(row["iteration"]) for row in validation}}
+    best = max(scores, key=lambda iteration: (scores[iteration], iteration))
+    return best, scores[best]
+
+
+def read_validation(run_dir: Path, config: TrainConfig) -> list[dict]:
+    """The rows of the run's ``validation.csv`` for checkpoints up to ``config.iterations`` ([] when none)."""
+    path = run_dir / VALIDATION_FILE
+    rows = read_metrics(path) if path.exists() else []
+    return [row for row in rows if int(row["iteration"]) <= config.iterations]
+
+
+def validate_checkpoints(runner, config: TrainConfig, run_dir: Path, export) -> None:
+    """Play ``config.validation_episodes`` episodes on each training layout (sequential protocol, the layout's own
+    start, sampled actions: as the leaderboard plays them) with the policy of every checkpoint up to
+    ``config.iterations``. Each checkpoint's policy file is exported (by ``export(path)``) to
+    ``validation/policy_<iteration>.pt``, and its rows are appended to ``validation.csv`` as soon as they are measured:
+    a resumed run validates only the checkpoints not done yet."""
+    from cabinbench.episodes import run_episode
+    from cabinbench.layout import load_layout
+
+    path = run_dir / VALIDATION_FILE
+    rows = read_metrics(path) if path.exists() else []
+    done = {int(row["iteration"]) for row in rows}
+    layouts = {name: load_layout(name) for name in dict.fromkeys(config.layouts)}
+    env_kwargs = {"max_steps": config.max_steps} if config.max_steps else {}
+    checkpoints = sorted((run_dir / CHECKPOINT_DIR).glob("model_*.pt"))
+    with open(path, "a", newline="") as file:
+        writer = csv.DictWriter(file, VALIDATION_COLUMNS)
+        if not rows:
+            writer.writeheader()
+        for checkpoint in checkpoints:
+            iteration = int(checkpoint.stem.split("_")[1])
+            if iteration in done or iteration > config.iterations:
+                continue
+            load_checkpoint(runner, checkpoint)
+            policy = export(run_dir / VALIDATION_DIR / f"policy_{iteration:06d}.pt")
+            measured = []
+            for name, layout in layouts.items():
+                records = [run_episode(config.ablation, layout, VALIDATION_SEED + episode, env_kwargs=env_kwargs,
+                                       config={"checkpoint": str(policy)})[0]
+                           for episode in range(config.validation_episodes)]
+                measured.append({"iteration": iteration, "layout": name, "episodes": len(records),
+                                 **{metric: float(np.mean([record[metric] for record in records]))
+                                    for metric in VALIDATION_COLUMNS[3:]}})
+            writer.writerows(measured)  # a checkpoint's rows together: an interruption never leaves half of them
+            file.flush()
+
+
+# ---------------------------------------------------------------------------------------------------------------------
+# 6. Training curves (the seed's Fig. 5.8)
 # ---------------------------------------------------------------------------------------------------------------------
 
 CURVE_PANELS = (
@@ -540,13 +657,20 @@ CURVE_PANELS = (
 )
 
 
-def plot_curves(rows: list[dict], path: str | os.PathLike, title: str = "", smoothing: int = 10) -> None:
+def plot_curves(rows: list[dict], path: str | os.PathLike, title: str = "", smoothing: int = 10,
+                validation: list[dict] | None = None) -> None:
     """2 x 3 panels like the seed's Fig. 5.8: the raw value per iteration (light) and a running mean (dark).
-    Panels of modules the ablation does not use say so. The same rows give a byte-identical PNG."""
+    Panels of modules the ablation does not use say so. With ``validation`` (``validation.csv``'s rows) a seventh
+    panel shows each checkpoint's validation coverage and success and marks the best one. The same rows give a
+    byte-identical PNG."""
     from matplotlib.figure import Figure  # no pyplot: no window, no global state
 
-    figure = Figure(figsize=(13, 7))
-    for axis, (column, label) in zip(figure.subplots(2, 3).flat, CURVE_PANELS):
+    figure = Figure(figsize=(17, 7) if validation else (13, 7))
+    axes = figure.subplots(2, 4 if validation else 3)
+    if validation:
+        _plot_validation(axes[0, 3], validation)
+        axes[1, 3].set_axis_off()
+    for axis, (column, label) in zip(axes[:, :3].flat, CURVE_PANELS):
         points = [(int(row["iteration"]), float(row[column])) for row in rows if row[column] not in ("", None)]
         axis.set_title(label, fontsize=10)
         axis.set_xlabel("iteration")
@@ -568,3 +692,19 @@ def plot_curves(rows: list[dict], path: str | os.PathLike, title: str = "", smoo
     temporary = Path(path).with_name(Path(path).stem + ".tmp.png")
     figure.savefig(temporary, dpi=100, metadata={"Software": None})  # no matplotlib version in committed figures
     os.replace(temporary, path)
+
+
+def _plot_validation(axis, validation: list[dict]) -> None:
+    """Mean validation coverage and success rate over the training layouts per checkpoint; the best one marked."""
+    iterations = sorted({int(row["iteration"]) for row in validation})
+    for metric, colour in (("coverage", "tab:green"), ("success", "tab:orange")):
+        means = [np.mean([float(row[metric]) for row in validation if int(row["iteration"]) == iteration])
+                 for iteration in iterations]
+        axis.plot(iterations, means, marker="o", markersize=3, color=colour, label=metric)
+    best, _ = best_checkpoint(validation)
+    axis.axvline(best, color="grey", linestyle="--", linewidth=1, label=f"best ({best})")
+    axis.set_title("(g) Validation: training cells, other seeds", fontsize=10)
+    axis.set_xlabel("iteration")
+    axis.set_ylim(-0.02, 1.02)
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=8)
