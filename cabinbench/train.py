@@ -16,10 +16,11 @@ At the end every checkpoint's policy plays ``--validation-episodes`` episodes (d
 (``validation.csv`` in the run directory); ``--export best`` exports the checkpoint that did best there instead of
 the last (see ``TrainConfig.export`` for why the last is the default).
 ``--ship`` copies the exported policy to ``baselines/ppo_gail/checkpoints/<baseline>.pt``, where
-``python -m cabinbench.run --baseline <baseline>`` finds it, and the run's ``config.json``, ``metrics.csv`` and ``validation.csv`` to
-``results/training/<baseline>/``, from which ``python -m cabinbench.leaderboard`` draws the committed training curves.
-``--keep`` copies the policy, ``config.json``, ``metrics.csv`` and ``validation.csv`` to ``results/training/<baseline>/seed<S>/``: a
-further training run of the same command, which ``results/make_results.sh`` scores into ``results/ablation.md``.
+``python -m cabinbench.run --baseline <baseline>`` finds it, and the run's ``config.json``, ``metrics.csv`` and
+``validation.csv`` to ``results/training/<baseline>/``, from which ``python -m cabinbench.leaderboard`` draws the
+committed training curves. ``--keep`` copies the policy, ``config.json``, ``metrics.csv`` and ``validation.csv`` to
+``results/training/<baseline>/seed<S>/``: a further training run of the same command, which
+``results/make_results.sh`` scores into ``results/ablation.md``.
 
 Exit status: 0 done; 2 bad arguments (an unknown baseline: the valid ones are printed) or a run directory that
 cannot be used as asked; 130 interrupted by Ctrl-C (finished checkpoints are kept; resume with ``--resume``).

@@ -12,6 +12,7 @@ full_cabin episodes (seeds 0-3). Prints one row per run, then the mean per ablat
 from __future__ import annotations
 
 import json
+import os
 import sys
 from collections import defaultdict
 from pathlib import Path
@@ -29,7 +30,7 @@ def scores(ablation: str, policy: Path) -> tuple[float, ...]:
     jobs = [EpisodeJob(ablation, layout, seed=0, episode=episode, baseline_config={"checkpoint": str(policy)})
             for layout, count in EPISODES.items() for episode in range(count)]
     records = defaultdict(list)
-    for result in run_jobs(jobs, workers=2):
+    for result in run_jobs(jobs, workers=os.cpu_count() or 1):
         records[result.job.layout].append(result.record)
     a320, cabin = records["a320_cell"], records["full_cabin"]
     return (np.mean([r["coverage"] for r in a320]), np.mean([r["success"] for r in a320]),
