@@ -26,6 +26,9 @@ one record per episode. Definitions (areas are counted on the 0.05 m raster):
   cells cleared; open: coverage ≥ the layout's ``success_coverage``);
 - ``wall_time``: real seconds the episode took.
 
+Where the uncovered floor lies (not an episode metric; the leaderboard's ``uncovered`` table):
+:func:`uncovered_by_clearance` splits ``1 - coverage`` into bands of distance from the nearest wall.
+
 Teams (K > 1) add ``n_agents``, ``path_lengths`` (per robot), ``makespan`` (simulated seconds
 until the last robot made its last move) and ``load_balance`` (max / mean path length).
 """
@@ -47,11 +50,25 @@ METRICS = (
     "wall_time",
 )
 TEAM_METRICS = ("n_agents", "robot_collisions", "path_lengths", "makespan", "load_balance")
+CLEARANCE_BANDS = (0.0, 0.05, 0.10, 0.20, 0.35)
+"""Lower edges, in metres from the nearest wall, of the bands of :func:`uncovered_by_clearance`; the last band is
+open-ended. A robot (radius 0.175 m) covers the first band only by driving within 5 cm of the wall; floor 0.35 m
+(a robot diameter) or more from every wall is covered by any pass over it."""
 
 
 def overlap(pass_count: np.ndarray) -> float:
     covered = pass_count > 0
     return float((pass_count[covered].astype(np.int64) - 1).sum() / covered.sum()) if covered.any() else 0.0
+
+
+def uncovered_by_clearance(pass_count: np.ndarray, coverable_mask: np.ndarray, clearance: np.ndarray,
+                           bands: tuple[float, ...] = CLEARANCE_BANDS) -> np.ndarray:
+    """Uncovered coverable area in each band of ``clearance`` (a pixel centre's distance to the nearest wall,
+    :attr:`~cabinbench.layout.Layout.clearance`) over the whole coverable area: the entries sum to 1 - coverage.
+    With a ``pass_count`` of zeros: each band's share of the coverable area."""
+    band = np.digitize(clearance[coverable_mask], bands[1:])
+    uncovered = pass_count[coverable_mask] == 0
+    return np.bincount(band[uncovered], minlength=len(bands)) / band.size
 
 
 class EpisodeTracker:

@@ -51,6 +51,7 @@ def build(template: Path, results: Path, out: Path) -> str:
         "{{layouts_table}}": layouts_table(),
         "{{leaderboard_table}}": generated_table(results / "leaderboard.md"),
         "{{ablation_table}}": generated_table(results / "ablation.md"),
+        "{{uncovered_table}}": generated_table(results / "uncovered.md"),
         "{{figures}}": figures(results, out.parent),
     }
     for placeholder, value in replacements.items():

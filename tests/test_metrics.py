@@ -7,7 +7,7 @@ import pytest
 
 from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.layout import parse_layout
-from cabinbench.metrics import METRICS, overlap
+from cabinbench.metrics import METRICS, overlap, uncovered_by_clearance
 
 from .driving import drive
 
@@ -83,3 +83,21 @@ def test_record_has_every_metric_and_collisions_count_contacts():
 def test_overlap_counts_passes_not_steps():
     assert overlap(np.array([[0, 1], [1, 1]], dtype=np.uint16)) == 0
     assert overlap(np.array([[3, 1], [0, 0]], dtype=np.uint16)) == pytest.approx(1.0)
+
+
+def test_uncovered_floor_is_split_by_distance_from_the_walls():
+    clearance = np.array([[0.02, 0.07, 0.15, 0.30, 0.50, 0.0]])  # the last pixel is not coverable
+    coverable = np.array([[True, True, True, True, True, False]])
+    covered_inner_two = np.array([[0, 0, 0, 1, 2, 0]], dtype=np.uint16)
+    assert uncovered_by_clearance(covered_inner_two, coverable, clearance) == pytest.approx([0.2, 0.2, 0.2, 0, 0])
+    assert uncovered_by_clearance(np.zeros_like(covered_inner_two), coverable, clearance) == pytest.approx([0.2] * 5)
+    # a real episode: the robot drives down the middle of a corridor 0.65 m wide, its disc 15 cm from either side
+    # wall, so it leaves uncovered only floor within 15 cm of them; the bands sum to 1 - coverage
+    layout = room(1.2, 0.65, (0.25, 0.325))
+    env = CoverageEnv(layout, protocol="open")
+    env.reset(seed=0)
+    for _ in range(30):  # into the far wall
+        env.step([1.0, 0.0])
+    uncovered = uncovered_by_clearance(env.world.pass_count, layout.coverable_raster, layout.clearance)
+    assert uncovered.sum() == pytest.approx(1.0 - env.world.coverage, abs=1e-12)
+    assert uncovered[1] > 0 and uncovered[2] > 0 and uncovered[3:].sum() == 0  # 5-10 and 10-20 cm

@@ -4,11 +4,13 @@ import contextlib
 import io
 import json
 import math
+import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from PIL import Image
 
@@ -170,12 +172,32 @@ def test_leaderboard_is_reproducible(short_run, tmp_path):
         outputs.append({path.relative_to(tmp_path): path.read_bytes() for path in sorted(tmp_path.rglob("*.*"))})
     assert outputs[0] == outputs[1]
     names = {str(path) for path in outputs[0]}
-    assert {"leaderboard.md", "leaderboard.csv", "figures/bars_coverage.png", "figures/bars_time.png",
+    assert {"leaderboard.md", "leaderboard.csv", "uncovered.md", "uncovered.csv",
+            "figures/bars_coverage.png", "figures/bars_time.png",
             "figures/coverage_time__a320_cell.png",
             "figures/trajectory__a320_cell__random_bounce__sequential__k1.png"} <= names
     table = (tmp_path / "leaderboard.md").read_text()
     assert "CITATION.cff" in table and f"python -m cabinbench.leaderboard --runs {runs}" in table
     assert "| a320_cell | 0.3011 / 23.19 | random_bounce | sequential | 1 | 3 | 3 |" in table
+    # where the uncovered floor lies: the bands of a row add up to what its episodes left uncovered
+    [uncovered] = pd.read_csv(tmp_path / "uncovered.csv").to_dict("records")
+    bands = [value for name, value in uncovered.items() if name.startswith("uncovered ")]
+    shares = [value for name, value in uncovered.items() if name.startswith("share ")]
+    assert len(bands) == 5 and sum(bands) == pytest.approx(1 - uncovered["coverage"], abs=1e-5)
+    assert sum(shares) == pytest.approx(1.0, abs=1e-5) and all(0 <= b <= s for b, s in zip(bands, shares))
+
+
+def test_uncovered_table_leaves_out_runs_whose_layout_changed(short_run, tmp_path):
+    source = Path(short_run["records"])
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    records = [json.loads(line) for line in source.read_text().splitlines()]
+    (runs / source.name).write_text("".join(json.dumps({**r, "layout_hash": "0" * 16}) + "\n" for r in records))
+    shutil.copy(source.with_suffix(".npz"), runs / source.with_suffix(".npz").name)
+    assert leaderboard.main(["--runs", str(runs), "--out", str(tmp_path / "out")]) == 0
+    table = (tmp_path / "out" / "uncovered.md").read_text()
+    assert "a320_cell / random_bounce / sequential / K=1: left out of the uncovered table" in table
+    assert "| a320_cell | random_bounce |" not in table
 
 
 def test_leaderboard_without_records_fails(tmp_path, capsys):
