@@ -88,15 +88,15 @@ class TrainConfig:
     iterations: int = 800
     seed: int = 0
     reward: str = "coverage"
-    """Reward preset of the env. "coverage" (dense: pays for newly covered area) rather than the seed's "paper"
-    (Tables 4.4/4.5, which pays only for the four goal markers): the paper reward ends the episode, and so the
-    coverage, as soon as the last marker is reached, and in short trial runs its policies covered less and cleared
-    the cell less often; coverage is what the benchmark scores. The policies leave more of the floor uncovered the nearer
-    it lies to a wall (``results/uncovered.md``), where the preset's collision penalty (-0.1) makes driving costly. A
-    penalty of -0.02 was tried and not adopted (seed 0; validation coverage / success on ``a320_cell`` at the last
-    checkpoint, against 0.797 / 1.0 for ppo and 0.706 / 0.90 for ppo_gail with -0.1): ppo reached 0.842 / 1.0, but
-    learnt to push along walls (18 collisions per ``a320_cell`` episode, 5 before) and cleared 2 ``full_cabin`` cells
-    (4 episodes, 1380 collisions each); ppo_gail fell to 0.633 / 0.30."""
+    """Reward preset of the env. "coverage" (dense: pays for newly covered area) rather than the seed's "paper" (Tables
+    4.4/4.5, which pays only for the four goal markers): the paper reward ends the episode, and so the coverage, as soon
+    as the last marker is reached, and in short trial runs its policies covered less and cleared the cell less often;
+    coverage is what the benchmark scores. The policies leave more of the floor uncovered the nearer it lies to a wall
+    (``results/uncovered.md``), where the preset's collision penalty (-0.1) makes driving costly. A penalty of -0.02 was
+    tried and not adopted (seed 0; validation coverage / success on ``a320_cell`` at the last checkpoint, against 0.797
+    / 1.0 for ppo and 0.706 / 0.90 for ppo_gail with -0.1): ppo reached 0.842 / 1.0, but learnt to push along walls (18
+    collisions per ``a320_cell`` episode, 5 before) and cleared 2 ``full_cabin`` cells (4 episodes, 1380 collisions
+    each); ppo_gail fell to 0.633 / 0.30."""
     terminate_on_bound: bool = False
     """Do not end the episode on a bound contact (the seed's tracking training did, Table 4.5). With the GAIL logit
     reward, which is negative wherever the agent does not look like the expert, a bound that ends the episode is an
