@@ -51,7 +51,7 @@ import pandas as pd
 from matplotlib import colormaps
 from matplotlib.figure import Figure  # no pyplot: figures render with Agg, no window, no global state
 
-from .layout import load_layout
+from .layout import LayoutError, load_layout
 from .metrics import CLEARANCE_BANDS, uncovered_by_clearance
 from .records import read_records, read_trajectories, safe_name
 from .render import COVERED, FLOOR, OBSTACLE, ROBOT_COLOURS
@@ -194,7 +194,7 @@ def recorded_layout(name: str, content_hash: str):
     """The layout a run recorded, or None when it cannot be loaded or its file has changed since."""
     try:
         layout = load_layout(name)
-    except (OSError, ValueError):
+    except (OSError, LayoutError):
         return None
     return layout if layout.content_hash == content_hash else None
 
