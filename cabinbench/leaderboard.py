@@ -206,7 +206,7 @@ def uncovered_rows(groups: list[tuple[dict, pd.DataFrame]]) -> tuple[list[dict],
     for key, episodes in groups:
         layout = recorded_layout(key["layout"], episodes["layout_hash"].iloc[0])
         if layout is None or episodes["layout_hash"].nunique() > 1:
-            notes.append(f"{row_name(key)}: left out of the uncovered table, its layout file is not the one it was run on")
+            notes.append(f"{row_name(key)}: left out of the uncovered table: its layout cannot be loaded, or is not the one it was run on")
             continue
         uncovered = [uncovered_by_clearance(stored_run(source).episodes[int(episode)]["pass_count"],
                                             layout.coverable_raster, layout.clearance)
@@ -241,8 +241,8 @@ def uncovered_markdown(rows: list[dict], runs: str, command: str, notes: list[st
         "do not edit by hand.",
         "",
         "The coverable floor is split into bands of distance from the nearest wall (a pixel centre's exact "
-        "distance; the robot's radius is 17.5 cm, so floor within 5 cm of a wall is covered only by driving along "
-        "it). A cell gives the uncovered coverable area in that band as a fraction of the whole coverable area, "
+        "distance; floor within 5 cm of a wall is covered only by a robot whose edge comes within 5 cm of the "
+        "wall). A cell gives the uncovered coverable area in that band as a fraction of the whole coverable area, "
         "averaged over the row's episodes, then `/` the band's share of the coverable area: `0.080 / 0.183` is "
         "0.080 of the floor left uncovered out of the 0.183 that lies in the band. A row's bands sum to "
         "1 - coverage. Definition: `uncovered_by_clearance` in `cabinbench/metrics.py`.",

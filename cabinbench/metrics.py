@@ -52,8 +52,8 @@ METRICS = (
 TEAM_METRICS = ("n_agents", "robot_collisions", "path_lengths", "makespan", "load_balance")
 CLEARANCE_BANDS = (0.0, 0.05, 0.10, 0.20, 0.35)
 """Lower edges, in metres from the nearest wall, of the bands of :func:`uncovered_by_clearance`; the last band is
-open-ended. A robot (radius 0.175 m) covers the first band only by driving within 5 cm of the wall; floor 0.35 m
-(a robot diameter) or more from every wall is covered by any pass over it."""
+open-ended. A robot covers the first band only when its edge comes within 5 cm of the wall; floor 0.35 m (the
+built-in robot's diameter) or more from every wall is covered by any pass over it."""
 
 
 def overlap(pass_count: np.ndarray) -> float:
