@@ -96,7 +96,11 @@ class TrainConfig:
     tried and not adopted (seed 0; validation coverage / success on ``a320_cell`` at the last checkpoint, against 0.797
     / 1.0 for ppo and 0.706 / 0.90 for ppo_gail with -0.1): ppo reached 0.842 / 1.0, but learnt to push along walls (18
     collisions per ``a320_cell`` episode, 5 before) and cleared 2 ``full_cabin`` cells (4 episodes, 1380 collisions
-    each); ppo_gail fell to 0.633 / 0.30 (with -0.05: 0.592 / 0.70)."""
+    each); ppo_gail fell to 0.633 / 0.30 (with -0.05: 0.592 / 0.70). A step penalty of -0.001 (preset -0.005) was not
+    adopted either: driving at full speed (5 cm a step) along a strip of uncleaned floor narrower than 6.4 cm earns less
+    than the step costs on ``a320_cell``, but with the lower penalty the agents lost their hurry to finish: ppo 0.795 /
+    1.0, with its ``a320_tracking_cell`` success down from 1.0 to 0 (it kept cleaning the second cell without clearing
+    it), and ppo_gail 0.663 / 0.25."""
     terminate_on_bound: bool = False
     """Do not end the episode on a bound contact (the seed's tracking training did, Table 4.5). With the GAIL logit
     reward, which is negative wherever the agent does not look like the expert, a bound that ends the episode is an
