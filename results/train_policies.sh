@@ -3,7 +3,7 @@
 # seed 0 (installed with --ship, the leaderboard's policies) and at seeds 1 and 2 (kept with --keep, the ablation
 # table's). Training is deterministic on a CPU: the same code reproduces the committed policies and training records.
 # Usage: bash results/train_policies.sh [SEED ...]   (from the repository root; default seeds 0 1 2; the four runs of
-# one seed take about half an hour on 2 cores, so all twelve take about an hour and a half), then
+# one seed take about 40 minutes on 2 cores, so all twelve take about two hours), then
 # bash results/make_results.sh learned to score them.
 set -euo pipefail
 seeds=${*:-0 1 2}

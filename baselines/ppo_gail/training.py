@@ -34,8 +34,8 @@ takes the same calls from the runner and turns them into one CSV row per iterati
 
 The shipped policies (``baselines/ppo_gail/checkpoints``) come from ``python -m cabinbench.train --baseline NAME
 --ship`` with the defaults below: 800 iterations x 64 envs x 64 steps = 3.3 M steps, seed 0. On the 2-core
-development machine, each with another training run beside it, ppo_gail trained in 21 minutes, ppo_icm in 18-19,
-ppo_gail_only in 12-14 and ppo in 8 (seeds 0-2); validating their checkpoints took 2-5 minutes more per run.
+development machine, each with another training run beside it, ppo_gail trained in 27 minutes, ppo_icm in 22-23,
+ppo_gail_only in 17-19 and ppo in 12-14 (seeds 0-2); validating their checkpoints took 2-4 minutes more per run.
 ``--ship`` also keeps each run's ``config.json``, ``metrics.csv`` and ``validation.csv`` in ``results/training/``,
 from which the leaderboard draws the training curves. Training is
 deterministic on a CPU (seeded, one torch thread, envs seeded per index): ``results/train_policies.sh`` retrains all
