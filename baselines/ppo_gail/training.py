@@ -180,12 +180,13 @@ class TrainConfig:
     validation_episodes: int = 20
     """Episodes per training layout on which every checkpoint's policy is played at the end of training, as the
     leaderboard plays them but with seeds from ``VALIDATION_SEED``: ``validation.csv`` and panel (g) of
-    ``curves.png`` (0: no validation). On ppo_gail seed 0 they show how much a policy's score swings between
-    checkpoints 50 iterations apart: on ``a320_cell``, coverage 0.71-0.83 and success 0.05-0.95 from iteration 300 on."""
+    ``curves.png`` (0: no validation). They show how much a policy's score swings between checkpoints 50 iterations
+    apart: on ``a320_cell``, from iteration 300 on, ppo_gail seed 0 of the previous defaults (coarse patch) covered
+    0.71-0.83 (success 0.05-0.95), and seed 0 of these defaults 0.77-0.84 (success 0.5-1.0)."""
     export: str = "last"
     """Which checkpoint ``policy.pt`` holds: "last", or "best" on the validation episodes (``validation_score``).
     The results keep "last", the protocol they were made with; "best" would change the ablation's ranking. Measured
-    on the twelve runs of the results by ``python results/compare_checkpoints.py`` (each run's best and last
+    on the twelve runs of the previous defaults (coarse patch, GAIL strength 0.05) by ``python results/compare_checkpoints.py`` (each run's best and last
     checkpoint on the same episodes: 20 ``a320_cell`` with seeds 0-19, 4 ``full_cabin`` with seeds 0-3; the mean over
     seeds 0-2):
 
