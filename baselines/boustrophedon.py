@@ -81,11 +81,11 @@ from scipy import ndimage
 from scipy.optimize import linear_sum_assignment
 from scipy.sparse.csgraph import dijkstra
 
+from cabinbench.agents import Baseline, EpisodeContext
 from cabinbench.layout import RESOLUTION, Layout
 from cabinbench.lidar import LidarConfig
 from cabinbench.world import TIME_STEP, start_poses
 
-from .base import Baseline, EpisodeContext
 from .coverage_planning import FreeSpace, driving_time, pixels_to_world, plan_coverage, world_to_pixel
 from .path_following import PathFollower
 
@@ -140,20 +140,26 @@ def plan_layout(layout: Layout, protocol: str = "sequential", agent: int = 0, n_
                 keep_off = _near_points(layout, final_goal[None], layout.robot.radius + 0.02)
                 plan = _plan(layout, region & ~keep_off, position, goals)
                 legs.append(Leg(plan.waypoints, cell, "sweep"))
-                legs.append(Leg(_transit(layout, region | keep_off, plan.waypoints[-1], final_goal), cell, "goals"))
+                legs.append(
+                    Leg(_transit(layout, region | keep_off, plan.waypoints[-1], final_goal), cell, "goals")
+                )
             else:
                 legs.append(Leg(plan.waypoints, cell, "sweep"))
             position = legs[-1].waypoints[-1]
         if cell + 1 < len(layout.cells):
             exits = layout.passages[cell].exits
             exit_point = exits[np.argmin(np.hypot(*(exits - position).T))]
-            corridor = drivable & np.isin(layout.cell_raster, (cell, cell + 1)) & ~_near_bounds(layout, cell - 1)
+            corridor = (
+                drivable & np.isin(layout.cell_raster, (cell, cell + 1)) & ~_near_bounds(layout, cell - 1)
+            )
             legs.append(Leg(_transit(layout, corridor, position, exit_point), cell, "exit"))
             position = exit_point
     return legs
 
 
-def _plan(layout: Layout, region: np.ndarray, start: np.ndarray, goals: np.ndarray | None, quickest: bool = False):
+def _plan(
+    layout: Layout, region: np.ndarray, start: np.ndarray, goals: np.ndarray | None, quickest: bool = False
+):
     """``plan_coverage`` of ``region`` from ``start``; with ``quickest`` both sweep axes are
     planned and the plan with the shorter estimated driving time is kept (in a 2-pixel-wide
     pocket the shortest plan can be a zigzag across it, one turn per pixel)."""
@@ -161,8 +167,20 @@ def _plan(layout: Layout, region: np.ndarray, start: np.ndarray, goals: np.ndarr
     goal_pixels = [] if goals is None else [world_to_pixel(g, RESOLUTION, layout.origin) for g in goals]
     last_cells = (lambda cell: any(cell.contains(*pixel) for pixel in goal_pixels)) if goal_pixels else None
     axes = (0, 1) if quickest else (None,)
-    plans = [plan_coverage(region, RESOLUTION, layout.origin, robot.tool_width, start, last_cells, sweep_axis=axis,
-                           max_speed=robot.max_speed, max_turn_rate=robot.max_turn_rate) for axis in axes]
+    plans = [
+        plan_coverage(
+            region,
+            RESOLUTION,
+            layout.origin,
+            robot.tool_width,
+            start,
+            last_cells,
+            sweep_axis=axis,
+            max_speed=robot.max_speed,
+            max_turn_rate=robot.max_turn_rate,
+        )
+        for axis in axes
+    ]
     return min(plans, key=lambda plan: plan.duration)
 
 
@@ -175,10 +193,14 @@ def _near_points(layout: Layout, points: np.ndarray, distance: float) -> np.ndar
     return near
 
 
-def _transit(layout: Layout, region: np.ndarray, start: np.ndarray, end: np.ndarray,
-             fallback: np.ndarray | None = None) -> np.ndarray:
+def _transit(
+    layout: Layout, region: np.ndarray, start: np.ndarray, end: np.ndarray, fallback: np.ndarray | None = None
+) -> np.ndarray:
     """An A* path (metres) from ``start`` to ``end`` through ``region`` (else through ``fallback``)."""
-    begin, goal = world_to_pixel(start, RESOLUTION, layout.origin), world_to_pixel(end, RESOLUTION, layout.origin)
+    begin, goal = (
+        world_to_pixel(start, RESOLUTION, layout.origin),
+        world_to_pixel(end, RESOLUTION, layout.origin),
+    )
     if fallback is not None:
         try:
             pixels = FreeSpace(region).transit(begin, goal)
@@ -191,7 +213,10 @@ def _transit(layout: Layout, region: np.ndarray, start: np.ndarray, end: np.ndar
 
 def _first_touches(waypoints: np.ndarray, points: np.ndarray, reach: float) -> np.ndarray:
     """For each point, how far along the path (metres) the robot centre first comes within ``reach``."""
-    steps = [np.linspace(a, b, max(2, int(np.hypot(*(b - a)) / 0.02) + 1)) for a, b in zip(waypoints[:-1], waypoints[1:])]
+    steps = [
+        np.linspace(a, b, max(2, int(np.hypot(*(b - a)) / 0.02) + 1))
+        for a, b in zip(waypoints[:-1], waypoints[1:])
+    ]
     dense = np.vstack(steps) if steps else waypoints
     travelled = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(dense, axis=0).T))])
     within = np.hypot(dense[:, None, 0] - points[None, :, 0], dense[:, None, 1] - points[None, :, 1]) <= reach
@@ -207,14 +232,24 @@ def _near_bounds(layout: Layout, passage: int) -> np.ndarray:
     grid_x, grid_y = np.meshgrid(xs, ys)
     for x0, y0, x1, y1 in layout.passages[passage].bounds:
         direction = np.array([x1 - x0, y1 - y0])
-        t = np.clip(((grid_x - x0) * direction[0] + (grid_y - y0) * direction[1]) / direction.dot(direction), 0, 1)
-        near |= np.hypot(grid_x - (x0 + t * direction[0]), grid_y - (y0 + t * direction[1])) < layout.robot.radius + BOUND_MARGIN
+        t = np.clip(
+            ((grid_x - x0) * direction[0] + (grid_y - y0) * direction[1]) / direction.dot(direction), 0, 1
+        )
+        near |= (
+            np.hypot(grid_x - (x0 + t * direction[0]), grid_y - (y0 + t * direction[1]))
+            < layout.robot.radius + BOUND_MARGIN
+        )
     return near
 
 
 def _cell_region(layout: Layout, cell: int) -> np.ndarray:
     """Robot-centre pixels of ``cell`` that keep the disc off the bounds on either side."""
-    return layout.centre_free & (layout.cell_raster == cell) & ~_near_bounds(layout, cell - 1) & ~_near_bounds(layout, cell)
+    return (
+        layout.centre_free
+        & (layout.cell_raster == cell)
+        & ~_near_bounds(layout, cell - 1)
+        & ~_near_bounds(layout, cell)
+    )
 
 
 def team_share(layout: Layout, region: np.ndarray, agent: int, n_agents: int) -> np.ndarray:
@@ -230,7 +265,7 @@ def team_share(layout: Layout, region: np.ndarray, agent: int, n_agents: int) ->
     edges = np.searchsorted(weights, weights[-1] * np.arange(1, n_agents) / n_agents)
     bounds = np.concatenate([[columns[0]], columns[np.minimum(edges, len(columns) - 1)], [columns[-1] + 1]])
     share = np.zeros_like(region)
-    share[:, bounds[agent]: bounds[agent + 1]] = region[:, bounds[agent]: bounds[agent + 1]]
+    share[:, bounds[agent] : bounds[agent + 1]] = region[:, bounds[agent] : bounds[agent + 1]]
     return share
 
 
@@ -292,10 +327,23 @@ def team_split(layout: Layout, protocol: str, n_agents: int) -> TeamSplit:
             legs = [(sources[np.argmin(np.abs(sources[:, 1] - target[1]))], target) for target in targets]
             legs.sort(key=lambda leg: np.hypot(*(leg[0] - entry)) + 1e-3 * np.hypot(*(leg[1] - entry)))
             legs = legs[:1]  # the convoy's aisle (a second aisle stays in the shares: it is swept)
-            stages.append(_stage(layout, cell, region, layout.cells[cell].goals, entry, n_agents, legs, dead_end,
-                                 cell == first))
+            stages.append(
+                _stage(
+                    layout,
+                    cell,
+                    region,
+                    layout.cells[cell].goals,
+                    entry,
+                    n_agents,
+                    legs,
+                    dead_end,
+                    cell == first,
+                )
+            )
         start_cell = layout.cell_raster[layout.to_pixel(*layout.start[:2])]
-        corridor = drivable & (layout.cell_raster >= min(start_cell, first)) & (layout.cell_raster <= max(first, 0))
+        corridor = (
+            drivable & (layout.cell_raster >= min(start_cell, first)) & (layout.cell_raster <= max(first, 0))
+        )
         corridor &= ~_near_bounds(layout, first) if first < len(layout.passages) else True
     split = TeamSplit(stages, _assign_ranks(layout, corridor, starts, stages[0].shares))
     _SPLIT_CACHE[key] = split
@@ -311,10 +359,22 @@ def _reachable(layout: Layout) -> np.ndarray:
     return labels == labels[start] if labels[start] else layout.centre_free.copy()
 
 
-def _stage(layout: Layout, cell: int, region: np.ndarray, goals: np.ndarray, entry: np.ndarray, n_agents: int,
-           legs: list, dead_end: bool, first: bool) -> TeamStage:
+def _stage(
+    layout: Layout,
+    cell: int,
+    region: np.ndarray,
+    goals: np.ndarray,
+    entry: np.ndarray,
+    n_agents: int,
+    legs: list,
+    dead_end: bool,
+    first: bool,
+) -> TeamStage:
     # the way starts at the near end of the region (behind the entry: the galley wall in the first cell)
-    ways = [_through_way(layout, region, _far_end(layout, region, target, source[1]), target) for source, target in legs]
+    ways = [
+        _through_way(layout, region, _far_end(layout, region, target, source[1]), target)
+        for source, target in legs
+    ]
     through = np.any([_near_polyline(layout, way, THROUGH_BAND) for way in ways], axis=0) & region
     units, unit_goals = work_units(layout, region, goals, through, ways[0], entry, n_agents)
     robot = layout.robot
@@ -329,11 +389,19 @@ def _stage(layout: Layout, cell: int, region: np.ndarray, goals: np.ndarray, ent
     shares[0] = shares[0] | (through & ~np.any(sweeps, axis=0))  # the leader drives the rest of the way
     for rank, sweep in enumerate(sweeps):
         shares[rank] = shares[rank] | (sweep & through)
-    return TeamStage(cell, np.asarray(entry, dtype=float), shares, share_goals, through, ways, sweeps, estimates)
+    return TeamStage(
+        cell, np.asarray(entry, dtype=float), shares, share_goals, through, ways, sweeps, estimates
+    )
 
 
-def _band_owners(layout: Layout, ways: list[np.ndarray], through: np.ndarray, shares: list[np.ndarray],
-                 first: bool, dead_end: bool) -> list[np.ndarray]:
+def _band_owners(
+    layout: Layout,
+    ways: list[np.ndarray],
+    through: np.ndarray,
+    shares: list[np.ndarray],
+    first: bool,
+    dead_end: bool,
+) -> list[np.ndarray]:
     """What each rank sweeps: its share, plus the stretches of the through band where no other
     robot will drive while it sweeps: behind all the others' shares for the last robot to set
     off in the first stage (the others have left by then), and beyond all of them for the
@@ -447,10 +515,12 @@ def _merge_open_units(units: np.ndarray, unit_goals: list[np.ndarray]):
     label = np.full(units.shape[1:], -1)
     for k, unit in enumerate(units):
         label[unit] = k
-    pairs = np.concatenate([
-        np.column_stack([label[:, :-1].ravel(), label[:, 1:].ravel()]),
-        np.column_stack([label[:-1, :].ravel(), label[1:, :].ravel()]),
-    ])
+    pairs = np.concatenate(
+        [
+            np.column_stack([label[:, :-1].ravel(), label[:, 1:].ravel()]),
+            np.column_stack([label[:-1, :].ravel(), label[1:, :].ravel()]),
+        ]
+    )
     pairs = pairs[(pairs >= 0).all(axis=1) & (pairs[:, 0] != pairs[:, 1])]
     pairs = np.sort(pairs, axis=1)
     parent = list(range(count))
@@ -473,8 +543,15 @@ def _merge_open_units(units: np.ndarray, unit_goals: list[np.ndarray]):
     return merged.reshape(len(kept), *units.shape[1:]), goals
 
 
-def work_units(layout: Layout, region: np.ndarray, goals: np.ndarray, through: np.ndarray, way: np.ndarray,
-               entry: np.ndarray, n_agents: int):
+def work_units(
+    layout: Layout,
+    region: np.ndarray,
+    goals: np.ndarray,
+    through: np.ndarray,
+    way: np.ndarray,
+    entry: np.ndarray,
+    n_agents: int,
+):
     """``region`` less the ``through`` band cut into work units, ordered farthest from ``entry``
     (along x) first. Returns (unit masks (U, H, W) bool, goal markers (M_u, 2) per unit).
 
@@ -508,7 +585,9 @@ def work_units(layout: Layout, region: np.ndarray, goals: np.ndarray, through: n
         # robots would meet head-on in the aisle on their ways there and back)
         sides = [_side_of_way(layout, way, unit) for unit in units]
         gaps = [ndimage.distance_transform_edt(~unit) for unit in units]
-        reach = max(float(_arc_position(way, layout, unit).max()) for unit in units) if len(way) > 1 else np.inf
+        reach = (
+            max(float(_arc_position(way, layout, unit).max()) for unit in units) if len(way) > 1 else np.inf
+        )
         beyond = []
         for piece_label in range(1, count + 1):
             if (owner == piece_label).any():
@@ -544,13 +623,19 @@ def work_units(layout: Layout, region: np.ndarray, goals: np.ndarray, through: n
         first, second = _halve(units[k])
         goals_k = unit_goals[k]
         in_first = np.array([first[_nearest_pixel(units[k], layout, g)] for g in goals_k], dtype=bool)
-        units[k:k + 1] = [first, second]
-        unit_goals[k:k + 1] = [goals_k[in_first], goals_k[~in_first]]
-        keys[k:k + 1] = [(xs[np.nonzero(u)[1]].mean(), ys[np.nonzero(u)[0]].mean()) for u in (first, second)]
+        units[k : k + 1] = [first, second]
+        unit_goals[k : k + 1] = [goals_k[in_first], goals_k[~in_first]]
+        keys[k : k + 1] = [
+            (xs[np.nonzero(u)[1]].mean(), ys[np.nonzero(u)[0]].mean()) for u in (first, second)
+        ]
     centre_x = np.mean([key[0] for key in keys]) if keys else 0.0
     direction = 1.0 if entry[0] <= centre_x else -1.0  # the far end is the one away from the entry
-    order = sorted(range(len(units)), key=lambda k: (-direction * round(keys[k][0], 2), -round(keys[k][1], 2)))
-    return np.array([units[k] for k in order]).reshape(len(order), *region.shape), [unit_goals[k] for k in order]
+    order = sorted(
+        range(len(units)), key=lambda k: (-direction * round(keys[k][0], 2), -round(keys[k][1], 2))
+    )
+    return np.array([units[k] for k in order]).reshape(len(order), *region.shape), [
+        unit_goals[k] for k in order
+    ]
 
 
 def _side_of_way(layout: Layout, way: np.ndarray, mask: np.ndarray) -> int:
@@ -576,7 +661,9 @@ def _voronoi(layout: Layout, piece: np.ndarray, goals: np.ndarray) -> list[tuple
     free = FreeSpace(piece)
     nodes = np.array([free.node_id[_nearest_pixel(piece, layout, goal)] for goal in goals])
     unique_nodes = np.unique(nodes)
-    _, _, sources = dijkstra(free.graph, directed=False, indices=unique_nodes, min_only=True, return_predecessors=True)
+    _, _, sources = dijkstra(
+        free.graph, directed=False, indices=unique_nodes, min_only=True, return_predecessors=True
+    )
     node_to_part = {int(node): k for k, node in enumerate(unique_nodes)}
     label = np.full(piece.shape, -1)
     label[piece] = [node_to_part.get(int(source), -1) for source in sources]
@@ -620,7 +707,9 @@ def _geodesic_map(layout: Layout, region: np.ndarray, point: np.ndarray) -> np.n
     """Free-space distance (pixels) from ``point`` to every pixel of ``region`` (inf elsewhere)."""
     free = FreeSpace(region)
     distances = np.full(region.shape, np.inf)
-    distances[region] = dijkstra(free.graph, directed=False, indices=free.node_id[_nearest_pixel(region, layout, point)])
+    distances[region] = dijkstra(
+        free.graph, directed=False, indices=free.node_id[_nearest_pixel(region, layout, point)]
+    )
     return distances
 
 
@@ -637,7 +726,9 @@ def _sweep_duration(layout: Layout, unit: np.ndarray, entry: np.ndarray) -> floa
     return total
 
 
-def _partition(durations: np.ndarray, travel: np.ndarray, n_agents: int) -> tuple[list[tuple[int, int]], list[float]]:
+def _partition(
+    durations: np.ndarray, travel: np.ndarray, n_agents: int
+) -> tuple[list[tuple[int, int]], list[float]]:
     """Cut the ordered units into ``n_agents`` contiguous groups (rank r gets group r, empty
     groups last) minimising the largest estimated finishing time, where rank r finishes at
     r × DEPARTURE_GAP + travel to its farthest unit (the way there passes the others) + the
@@ -667,7 +758,9 @@ def _partition(durations: np.ndarray, travel: np.ndarray, n_agents: int) -> tupl
     return groups, estimates
 
 
-def _assign_ranks(layout: Layout, corridor: np.ndarray, starts: np.ndarray, shares: list[np.ndarray]) -> np.ndarray:
+def _assign_ranks(
+    layout: Layout, corridor: np.ndarray, starts: np.ndarray, shares: list[np.ndarray]
+) -> np.ndarray:
     """ranks[agent]: minimum summed squared distance from the start poses to the first stage's
     shares (squares give the farthest share to the robot nearest the way out)."""
     cost = np.zeros((len(starts), len(shares)))
@@ -705,7 +798,10 @@ def team_plans(layout: Layout, protocol: str, n_agents: int) -> list[list[Leg]]:
     for legs in plans:
         for leg in legs:
             if leg.purpose == "out":
-                duration = driving_time(leg.waypoints, robot.max_speed, robot.max_turn_rate) + math.pi / robot.max_turn_rate
+                duration = (
+                    driving_time(leg.waypoints, robot.max_speed, robot.max_turn_rate)
+                    + math.pi / robot.max_turn_rate
+                )
                 back_out[leg.cell] = max(back_out.get(leg.cell, 0.0), duration + STAGING_MARGIN)
     for agent, legs in enumerate(plans):
         for leg in legs:
@@ -745,9 +841,16 @@ def _robot_legs(layout: Layout, split: TeamSplit, agent: int, n_agents: int) -> 
         cell, share, goals = stage.cell, stage.sweeps[rank], stage.goals[rank]
         if not share.any():
             continue  # nothing for this robot here: it waits where it is
-        corridor = (drivable & (layout.cell_raster >= min(at_cell, cell)) & (layout.cell_raster <= cell)
-                    & ~_near_bounds(layout, min(at_cell, cell) - 1) & ~_near_bounds(layout, cell))
-        corridor |= share | (_near_points(layout, position[None], 2 * RESOLUTION) & drivable)  # where it stands
+        corridor = (
+            drivable
+            & (layout.cell_raster >= min(at_cell, cell))
+            & (layout.cell_raster <= cell)
+            & ~_near_bounds(layout, min(at_cell, cell) - 1)
+            & ~_near_bounds(layout, cell)
+        )
+        corridor |= share | (
+            _near_points(layout, position[None], 2 * RESOLUTION) & drivable
+        )  # where it stands
         # transits keep to the aisle and this robot's own share where they can
         lane = corridor & ~_others(stage, rank)
         if previous is not None:
@@ -764,7 +867,9 @@ def _robot_legs(layout: Layout, split: TeamSplit, agent: int, n_agents: int) -> 
             sweep = _sweep_path(layout, share, position, goals, lane, corridor)
             final_goal = goals[np.argmax(_first_touches(sweep, goals, layout.robot.radius))]
             keep_off = _near_points(layout, final_goal[None], layout.robot.radius + 0.02)
-            sweep = _sweep_path(layout, share & ~keep_off, position, goals, lane & ~keep_off, corridor & ~keep_off)
+            sweep = _sweep_path(
+                layout, share & ~keep_off, position, goals, lane & ~keep_off, corridor & ~keep_off
+            )
             add(sweep, cell, "sweep")
             ways = share | (keep_off & drivable) | corridor
             row, col = _nearest_pixel(ways, layout, final_goal)  # goals may sit where the disc cannot
@@ -783,7 +888,9 @@ def _robot_legs(layout: Layout, split: TeamSplit, agent: int, n_agents: int) -> 
                 # sweep on the way out when this robot's turn in the convoy comes.
                 before, after = _split_at_last_goal(sweep, goals, layout.robot.radius - GOAL_TOUCH_MARGIN)
                 # the way out: the rest of the sweep, then back to the aisle
-                onto_way = _near_polyline(layout, stage.ways[0], RESOLUTION) & corridor & _cell_region(layout, cell)
+                onto_way = (
+                    _near_polyline(layout, stage.ways[0], RESOLUTION) & corridor & _cell_region(layout, cell)
+                )
                 row, col = _nearest_pixel(onto_way, layout, after[-1])
                 xs, ys = layout.pixel_centres()
                 back = _transit(layout, lane, after[-1], np.array([xs[col], ys[row]]), corridor)
@@ -803,10 +910,14 @@ def _robot_legs(layout: Layout, split: TeamSplit, agent: int, n_agents: int) -> 
     return legs
 
 
-def _split_at_staging(path: np.ndarray, ways: list[np.ndarray], radius: float) -> tuple[np.ndarray, np.ndarray]:
+def _split_at_staging(
+    path: np.ndarray, ways: list[np.ndarray], radius: float
+) -> tuple[np.ndarray, np.ndarray]:
     """``path`` cut where it first comes closer to the through way than a passing robot needs
     (2 radii + ``STAGING_GAP``); the first part is empty when it starts that close."""
-    steps = [np.linspace(a, b, max(2, int(np.hypot(*(b - a)) / 0.02) + 1)) for a, b in zip(path[:-1], path[1:])]
+    steps = [
+        np.linspace(a, b, max(2, int(np.hypot(*(b - a)) / 0.02) + 1)) for a, b in zip(path[:-1], path[1:])
+    ]
     if not steps:
         return path[:1], path
     clearance = 2 * radius + STAGING_GAP
@@ -817,7 +928,7 @@ def _split_at_staging(path: np.ndarray, ways: list[np.ndarray], radius: float) -
             if index == 0 and k == 0:
                 return path[:1], path
             point = dense[max(k - 1, 0)]
-            return np.vstack([path[: index + 1], point]), np.vstack([point, path[index + 1:]])
+            return np.vstack([path[: index + 1], point]), np.vstack([point, path[index + 1 :]])
     return path, path[-1:]
 
 
@@ -832,7 +943,9 @@ def _distance_to_polyline(points: np.ndarray, polyline: np.ndarray) -> np.ndarra
     return np.sqrt(((points[:, None, :] - nearest) ** 2).sum(axis=2)).min(axis=1)
 
 
-def _split_at_last_goal(waypoints: np.ndarray, goals: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+def _split_at_last_goal(
+    waypoints: np.ndarray, goals: np.ndarray, reach: float
+) -> tuple[np.ndarray, np.ndarray]:
     """The path cut where it first comes within ``reach`` of the goal it reaches last."""
     touch = float(np.max(_first_touches(waypoints, goals, reach)))
     lengths = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(waypoints, axis=0).T))])
@@ -851,8 +964,14 @@ def _others(stage: TeamStage, rank: int) -> np.ndarray:
     return (np.any(others, axis=0) & ~stage.through) if others else np.zeros_like(stage.through)
 
 
-def _sweep_path(layout: Layout, share: np.ndarray, start: np.ndarray, goals: np.ndarray | None,
-                corridor: np.ndarray, fallback: np.ndarray | None = None) -> np.ndarray:
+def _sweep_path(
+    layout: Layout,
+    share: np.ndarray,
+    start: np.ndarray,
+    goals: np.ndarray | None,
+    corridor: np.ndarray,
+    fallback: np.ndarray | None = None,
+) -> np.ndarray:
     """One polyline (metres) from ``start`` that sweeps every piece of ``share``: the pieces
     (4-connected) nearest first, joined by A* transits through ``corridor | share``."""
     labels, count = ndimage.label(share)
@@ -864,15 +983,20 @@ def _sweep_path(layout: Layout, share: np.ndarray, start: np.ndarray, goals: np.
     ways = corridor | share
     fallback = ways if fallback is None else (fallback | share)
     goal_pieces = set()
-    for goal in ([] if goals is None else goals):
+    for goal in [] if goals is None else goals:
         goal_pieces.add(int(labels[_nearest_pixel(share, layout, goal)]))
     while remaining:
         # the piece nearest along the free space, entered at its nearest pixel; pieces holding
         # goal markers last (the last goal marker is where the robot waits for its cell to clear)
         distance = _geodesic_map(layout, ways, position)
         if not np.isfinite(distance[share]).all():  # pieces reached only through others' shares: last
-            distance = np.where(np.isfinite(distance), distance, _geodesic_map(layout, fallback, position) + 1e4)
-        nearest = [float(distance[labels == label].min()) + (1e6 if label in goal_pieces else 0.0) for label in remaining]
+            distance = np.where(
+                np.isfinite(distance), distance, _geodesic_map(layout, fallback, position) + 1e4
+            )
+        nearest = [
+            float(distance[labels == label].min()) + (1e6 if label in goal_pieces else 0.0)
+            for label in remaining
+        ]
         label = remaining.pop(int(np.argmin(nearest)))
         piece = labels == label
         if not piece[layout.to_pixel(*position)]:
@@ -896,14 +1020,19 @@ class Boustrophedon(Baseline):
         super().reset(context, observation, info)
         self.legs = plan_layout(context.layout, context.protocol, context.agent, context.n_agents)
         robot = context.layout.robot
-        self.follower = PathFollower(self.legs[0].waypoints if self.legs else np.zeros((1, 2)),
-                                     robot.max_speed, robot.max_turn_rate, TIME_STEP)
+        self.follower = PathFollower(
+            self.legs[0].waypoints if self.legs else np.zeros((1, 2)),
+            robot.max_speed,
+            robot.max_turn_rate,
+            TIME_STEP,
+        )
         self.leg, self.leg_started, self.blocked_time = 0, False, 0.0
         # cells cleared before the episode count as cleared at time 0
         self.clear_times = [0.0] * context.layout.cleared_cells
         config = context.env_config
-        lidar = LidarConfig(config.get("n_rays", 64), config.get("lidar_range", 3.5),
-                            config.get("field_of_view", 2 * math.pi))
+        lidar = LidarConfig(
+            config.get("n_rays", 64), config.get("lidar_range", 3.5), config.get("field_of_view", 2 * math.pi)
+        )
         self.ray_angles, self.lidar_range = lidar.ray_angles(), lidar.max_range
 
     def act(self, observation: np.ndarray, info: dict) -> np.ndarray:
@@ -956,8 +1085,9 @@ class Boustrophedon(Baseline):
         return bool(np.any((ahead > 0) & (ahead < radius + FOLLOW_GAP) & (np.abs(aside) < radius * 1.05)))
 
 
-def record_demonstrations(layout: str, episodes: int, path: str, seed: int = 0, action_noise: float = 0.0,
-                          **env_kwargs) -> dict:
+def record_demonstrations(
+    layout: str, episodes: int, path: str, seed: int = 0, action_noise: float = 0.0, **env_kwargs
+) -> dict:
     """Run the planner for ``episodes`` episodes and save (observation, action) pairs to ``path``.
     Returns a summary (steps, mean coverage, success rate).
 
@@ -985,9 +1115,15 @@ def record_demonstrations(layout: str, episodes: int, path: str, seed: int = 0, 
             observation, _, terminated, truncated, info = env.step(executed)
             done = terminated or truncated
         records.append(info["episode_record"])
-    np.savez_compressed(path, observations=np.array(observations, dtype=np.float32),
-                        actions=np.array(actions, dtype=np.float32), episode=np.array(episode_of, dtype=np.int32),
-                        observation_config=np.array(json.dumps(env.observation_config)))
-    return {"steps": len(actions), "coverage": float(np.mean([r["coverage"] for r in records])),
-            "success": float(np.mean([r["success"] for r in records]))}
-
+    np.savez_compressed(
+        path,
+        observations=np.array(observations, dtype=np.float32),
+        actions=np.array(actions, dtype=np.float32),
+        episode=np.array(episode_of, dtype=np.int32),
+        observation_config=np.array(json.dumps(env.observation_config)),
+    )
+    return {
+        "steps": len(actions),
+        "coverage": float(np.mean([r["coverage"] for r in records])),
+        "success": float(np.mean([r["success"] for r in records])),
+    }

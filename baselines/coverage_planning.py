@@ -273,10 +273,12 @@ class FreeSpace:
         radius = self.search_radius_px
         # A few sources at a time: Dijkstra returns a dense row over the whole raster per source.
         rows_per_batch = max(1, 2**22 // self.graph.shape[0])
-        distances = np.vstack([
-            dijkstra(self.graph, directed=False, indices=batch, limit=radius)[:, unique_nodes]
-            for batch in np.array_split(unique_nodes, math.ceil(len(unique_nodes) / rows_per_batch))
-        ])
+        distances = np.vstack(
+            [
+                dijkstra(self.graph, directed=False, indices=batch, limit=radius)[:, unique_nodes]
+                for batch in np.array_split(unique_nodes, math.ceil(len(unique_nodes) / rows_per_batch))
+            ]
+        )
         distances = distances[np.ix_(inverse, inverse)]
         return np.where(np.isfinite(distances), distances, radius + cdist(pixels, pixels))
 
@@ -523,9 +525,12 @@ def corridor_zigzag(cell: Cell, lines: np.ndarray) -> np.ndarray | None:
     widths = cell.intervals[:, 1] - cell.intervals[:, 0]
     if len(widths) < 3 or np.median(widths) > 1 or faces_obstacle_only(cell, lines):
         return None
-    points = np.array([
-        [line, cell.interval(line)[k % 2]] for k, line in enumerate(range(cell.first_line, cell.last_line + 1))
-    ])
+    points = np.array(
+        [
+            [line, cell.interval(line)[k % 2]]
+            for k, line in enumerate(range(cell.first_line, cell.last_line + 1))
+        ]
+    )
     if not all(segment_is_free(lines, a, b) for a, b in zip(points[:-1], points[1:])):
         return None
     return points
@@ -662,10 +667,13 @@ def cell_units(
         return [Sweep(index, _both_ways(option, piece, option_view)) for piece in pieces]
     directions = [(option, lanes) for option, lanes in directions if len(lanes) > 2]
     blocks = [
-        lane_blocks(option, lanes, centre_free) if options.lane_blocks else [lanes] for option, lanes in directions
+        lane_blocks(option, lanes, centre_free) if options.lane_blocks else [lanes]
+        for option, lanes in directions
     ]
     if all(len(direction_blocks) == 1 for direction_blocks in blocks):
-        variants = [variant for option, lanes in directions for variant in cell_sweeps(option, lanes, centre_free)]
+        variants = [
+            variant for option, lanes in directions for variant in cell_sweeps(option, lanes, centre_free)
+        ]
         return [Sweep(index, variants)]
     lengths = [polyline_length(cell_sweeps(option, lanes, centre_free)[0]) for option, lanes in directions]
     best = int(np.argmin(lengths))
@@ -980,7 +988,11 @@ def join(free_space: FreeSpace, start_pixel: tuple[int, int], sweeps: list[np.nd
 
 
 def drop_idle_corners(
-    path: np.ndarray, free: np.ndarray, radius_px: float, margin_px: float = 0.0, max_corners: int = 1,
+    path: np.ndarray,
+    free: np.ndarray,
+    radius_px: float,
+    margin_px: float = 0.0,
+    max_corners: int = 1,
     max_passes: int = 4,
 ) -> np.ndarray:
     """Shortcut the corners of a path wherever the shortcut loses no coverage.
@@ -1171,10 +1183,14 @@ def _plan_for_axis(free_space, sweep_axis, resolution, tool_width, start_pixel, 
     variant_count = max(len(unit.variants) for unit in units)
     # Pairs (k, k ^ 1) repeat, so padding every unit to the same variant count keeps the pairing.
     variants = [[unit.variants[k % len(unit.variants)] for k in range(variant_count)] for unit in units]
-    chosen_last = {k for k, unit in enumerate(units) if last_cells is not None and last_cells(cells[unit.cell])}
+    chosen_last = {
+        k for k, unit in enumerate(units) if last_cells is not None and last_cells(cells[unit.cell])
+    }
     tour = route(variants, start_pixel, free_space.pairwise_distances, chosen_last)
     path = join(free_space, start_pixel, [variants[unit][variant] for unit, variant in tour])
-    path = drop_idle_corners(path, free_space.free, tool_width / 2 / resolution, SHORTCUT_MARGIN_M / resolution)
+    path = drop_idle_corners(
+        path, free_space.free, tool_width / 2 / resolution, SHORTCUT_MARGIN_M / resolution
+    )
     cell_order = list(dict.fromkeys(units[unit].cell for unit, _ in tour))
     return cells, cell_order, path
 

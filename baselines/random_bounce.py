@@ -14,9 +14,8 @@ import math
 
 import numpy as np
 
+from cabinbench.agents import Baseline, EpisodeContext
 from cabinbench.world import TIME_STEP
-
-from .base import Baseline, EpisodeContext
 
 
 class RandomBounce(Baseline):

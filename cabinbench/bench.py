@@ -5,7 +5,7 @@ Measures:
 - single-env steps/s of ``CabinBench/Coverage-v0`` (64 rays, random actions, resets included) on
   ``a320_cell`` and ``full_cabin``, and on ``a320_cell`` with the 16 x 16 coverage patch the shipped
   policies observe, pinned to one core;
-- the batched training env's agent-steps/s (env stepping alone, random actions; best of 3), on one core and
+- the batched training env's agent-steps/s (needs torch) (env stepping alone, random actions; best of 3), on one core and
   with ``num_workers`` = the machine's cores (this process steps one shard, a worker each other);
 - the boustrophedon planner's time to plan ``full_cabin``;
 - peers stepped in the same run, so ratios survive machine drift: PettingZoo's Pistonball
@@ -26,6 +26,8 @@ import gymnasium as gym
 import numpy as np
 
 import cabinbench  # noqa: F401  (registers the envs)
+from cabinbench.agents import EpisodeContext, load_baseline
+from cabinbench.layout import load_layout
 
 
 def steps_per_second(env, steps: int, seed: int = 0) -> float:
@@ -50,10 +52,13 @@ def bench_single(layout: str, steps: int, **env_kwargs) -> float:
     return steps_per_second(gym.make("CabinBench/Coverage-v0", layout=layout, n_rays=64, **env_kwargs), steps)
 
 
-def bench_batched(layout: str, num_envs: int, steps: int, num_workers: int, repeats: int = 3) -> float:
+def bench_batched(layout: str, num_envs: int, steps: int, num_workers: int, repeats: int = 3) -> float | None:
     """Agent-steps/s of the batched env: the best of ``repeats`` runs of ``steps`` steps (on a
-    shared machine the slower runs measure the neighbours, not the env)."""
-    import torch
+    shared machine the slower runs measure the neighbours, not the env); None without torch."""
+    try:
+        import torch
+    except ImportError:
+        return None
 
     from cabinbench.envs.batched import BatchedCoverageEnv
 
@@ -71,20 +76,16 @@ def bench_batched(layout: str, num_envs: int, steps: int, num_workers: int, repe
         return steps * num_envs / min(timings)
 
 
-def bench_planner(layout: str) -> float | None:
-    """Seconds to plan a layout with the boustrophedon planner (best of 3)."""
-    try:
-        from baselines.boustrophedon import plan_layout
-    except ImportError:
-        return None
-    from cabinbench.layout import load_layout
-
+def bench_planner(layout: str, baseline: str = "boustrophedon") -> float:
+    """Seconds a planning baseline takes to plan a layout (its ``reset``, best of 3), found by name in the registry."""
     loaded = load_layout(layout)
-    plan_layout(loaded, protocol="sequential")  # warm-up
+    planner = load_baseline(baseline)
+    context = EpisodeContext(loaded, "sequential", seed=0)
+    planner.reset(context, np.zeros(0), {})  # warm-up
     timings = []
     for _ in range(3):
         started = time.perf_counter()
-        plan_layout(loaded, protocol="sequential")
+        planner.reset(context, np.zeros(0), {})
         timings.append(time.perf_counter() - started)
     return min(timings)
 
@@ -110,7 +111,9 @@ def bench_pistonball(steps: int) -> float | None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m cabinbench.bench", description="Env throughput, beside peer envs.")
+    parser = argparse.ArgumentParser(
+        prog="python -m cabinbench.bench", description="Env throughput, beside peer envs."
+    )
     parser.add_argument("--steps", type=int, default=20000, help="single-env steps per measurement")
     parser.add_argument("--num-envs", type=int, default=256, help="envs in the batched env")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
@@ -124,7 +127,9 @@ def main(argv: list[str] | None = None) -> int:
         "single_a320_cell_steps_per_s": bench_single("a320_cell", args.steps),
         "single_full_cabin_steps_per_s": bench_single("full_cabin", args.steps),
         "single_a320_cell_patch16_steps_per_s": bench_single("a320_cell", args.steps, coverage_patch=16),
-        "batched_a320_cell_agent_steps_per_s_one_core": bench_batched("a320_cell", args.num_envs, batched_steps, num_workers=1),
+        "batched_a320_cell_agent_steps_per_s_one_core": bench_batched(
+            "a320_cell", args.num_envs, batched_steps, num_workers=1
+        ),
         f"batched_a320_cell_agent_steps_per_s_{len(cores)}_workers": all_cores,
         "boustrophedon_plan_full_cabin_s": bench_planner("full_cabin"),
         "peer_cartpole_steps_per_s": steps_per_second(gym.make("CartPole-v1"), args.steps),
@@ -138,11 +143,19 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         print(json.dumps({k: (round(v, 4) if isinstance(v, float) else v) for k, v in results.items()}))
         return 0
-    targets = {"single_a320_cell_steps_per_s": "target >= 10,000",
-               f"batched_a320_cell_agent_steps_per_s_{len(cores)}_workers": "target >= 50,000 on this machine",
-               "boustrophedon_plan_full_cabin_s": "target < 1 s"}
+    targets = {
+        "single_a320_cell_steps_per_s": "target >= 10,000",
+        f"batched_a320_cell_agent_steps_per_s_{len(cores)}_workers": "target >= 50,000 on this machine",
+        "boustrophedon_plan_full_cabin_s": "target < 1 s",
+    }
     for name, value in results.items():
-        shown = "not available in this install" if value is None else f"{value:,.4g}" if value < 100 else f"{value:,.0f}"
+        shown = (
+            "not available in this install"
+            if value is None
+            else f"{value:,.4g}"
+            if value < 100
+            else f"{value:,.0f}"
+        )
         print(f"{name:<40} {shown:>16}   {targets.get(name, '')}")
     return 0
 

@@ -75,15 +75,21 @@ def save_complexity_png(result: Complexity, path: str, title: str = "") -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m cabinbench.complexity", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m cabinbench.complexity", description=__doc__.split("\n\n")[0]
+    )
     parser.add_argument("layout", help="layout name or YAML path")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--png", metavar="FILE", help="draw the complexity map to FILE")
     args = parser.parse_args(argv)
     layout = load_layout(args.layout)
     result = layout_complexity(layout)
-    summary = {"layout": layout.name, "grid": list(result.cell_map.shape), "total": round(result.total, 4),
-               "normalized": round(result.normalized, 4)}
+    summary = {
+        "layout": layout.name,
+        "grid": list(result.cell_map.shape),
+        "total": round(result.total, 4),
+        "normalized": round(result.normalized, 4),
+    }
     if args.png:
         save_complexity_png(result, args.png, layout.name)
         summary["png"] = args.png
@@ -91,7 +97,9 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(summary))
     else:
         rows, cols = result.cell_map.shape
-        print(f"{layout.name}: {rows}x{cols} robot cells, total {result.total:.4f}, normalized {result.normalized:.4f}")
+        print(
+            f"{layout.name}: {rows}x{cols} robot cells, total {result.total:.4f}, normalized {result.normalized:.4f}"
+        )
     return 0
 
 

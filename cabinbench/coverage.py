@@ -33,8 +33,12 @@ class CoveragePatch:
 
     def __post_init__(self) -> None:
         if not isinstance(self.cells, int) or isinstance(self.cells, bool) or self.cells < 0:
-            raise ValueError(f"coverage_patch must be a whole number of cells >= 0 (0: no patch), got {self.cells!r}")
-        if not (isinstance(self.cell_size, (int, float)) and math.isfinite(self.cell_size) and self.cell_size > 0):
+            raise ValueError(
+                f"coverage_patch must be a whole number of cells >= 0 (0: no patch), got {self.cells!r}"
+            )
+        if not (
+            isinstance(self.cell_size, (int, float)) and math.isfinite(self.cell_size) and self.cell_size > 0
+        ):
             raise ValueError(f"coverage_patch_cell must be a positive size in metres, got {self.cell_size!r}")
 
     @property
@@ -44,8 +48,23 @@ class CoveragePatch:
 
 
 @njit(cache=True)
-def write_coverage_patch(out, start, x, y, heading, cells, cell_size, pass_count, coverable_mask, cell_of,
-                         cell_visible, outside_visible, origin_x, origin_y, resolution):
+def write_coverage_patch(
+    out,
+    start,
+    x,
+    y,
+    heading,
+    cells,
+    cell_size,
+    pass_count,
+    coverable_mask,
+    cell_of,
+    cell_visible,
+    outside_visible,
+    origin_x,
+    origin_y,
+    resolution,
+):
     """Write the :class:`CoveragePatch` of a robot at (x, y, heading) into ``out[start : start + cells**2]``.
     ``cell_visible[c]`` says whether cell ``c``'s floor counts; ``outside_visible`` the same for floor in no cell."""
     rows, cols = pass_count.shape
@@ -58,7 +77,7 @@ def write_coverage_patch(out, start, x, y, heading, cells, cell_size, pass_count
     first_col = (x - origin_x) / resolution + corner * (ahead_col + left_col)
     first_row = (y - origin_y) / resolution + corner * (ahead_row + left_row)
     weight = 1.0 / (PATCH_SAMPLES * PATCH_SAMPLES)
-    out[start: start + cells * cells] = 0.0
+    out[start : start + cells * cells] = 0.0
     for i in range(samples):
         entry_row = start + (i // PATCH_SAMPLES) * cells
         col_f, row_f = first_col + i * ahead_col, first_row + i * ahead_row
@@ -74,8 +93,21 @@ def write_coverage_patch(out, start, x, y, heading, cells, cell_size, pass_count
 
 
 @njit(cache=True)
-def stamp_footprint(pass_count, floor_mask, coverable_mask, cell_of, covered_by_cell,
-                    x, y, previous_x, previous_y, radius, origin_x, origin_y, resolution):
+def stamp_footprint(
+    pass_count,
+    floor_mask,
+    coverable_mask,
+    cell_of,
+    covered_by_cell,
+    x,
+    y,
+    previous_x,
+    previous_y,
+    radius,
+    origin_x,
+    origin_y,
+    resolution,
+):
     """Mark the disc at (x, y) on ``pass_count``; return (newly covered floor px, newly covered
     coverable px). ``previous_x`` is NaN for the first pose of an episode. Pixels are covered when
     their centre lies in the disc; only floor pixels count. ``covered_by_cell`` accumulates newly

@@ -2,7 +2,7 @@
 
 :func:`run_episode` plays one episode of a baseline on a layout. The baseline drives the robots
 only through the env's actions (never by moving them): one instance per robot, each told its seat
-in the team by :class:`~baselines.base.EpisodeContext`. One robot goes through the Gymnasium
+in the team by :class:`~cabinbench.agents.EpisodeContext`. One robot goes through the Gymnasium
 :class:`~cabinbench.envs.coverage_env.CoverageEnv`; a team (K > 1) through the PettingZoo
 ``cabinbench.parallel_env``. Both are driven by the same loop in PettingZoo's dict form.
 
@@ -26,9 +26,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from baselines.base import EpisodeContext, load_baseline
-
 from . import parallel_env
+from .agents import EpisodeContext, load_baseline
 from .envs.coverage_env import CoverageEnv
 from .layout import Layout, load_layout
 from .render import draw_frame
@@ -83,8 +82,13 @@ class _SingleAgentAsParallel:
         observation, reward, terminated, truncated, info = self.env.step(actions[self.agent])
         if terminated or truncated:
             self.agents = []
-        return ({self.agent: observation}, {self.agent: reward}, {self.agent: terminated},
-                {self.agent: truncated}, {self.agent: info})
+        return (
+            {self.agent: observation},
+            {self.agent: reward},
+            {self.agent: terminated},
+            {self.agent: truncated},
+            {self.agent: info},
+        )
 
     def close(self):
         self.env.close()
@@ -100,9 +104,16 @@ def make_env(layout: Layout, protocol: str, n_agents: int, env_kwargs: dict):
     return parallel_env(layout=layout, n_agents=n_agents, protocol=protocol, **team_kwargs)
 
 
-def run_episode(baseline_spec: str, layout: str | Layout, seed: int, protocol: str = "sequential",
-                n_agents: int = 1, env_kwargs: dict | None = None, config: dict | None = None,
-                frame_every: int | None = None) -> tuple[dict, dict]:
+def run_episode(
+    baseline_spec: str,
+    layout: str | Layout,
+    seed: int,
+    protocol: str = "sequential",
+    n_agents: int = 1,
+    env_kwargs: dict | None = None,
+    config: dict | None = None,
+    frame_every: int | None = None,
+) -> tuple[dict, dict]:
     """Play one episode; return ``(record, trajectory)``.
 
     ``seed`` seeds the env reset and every baseline instance (``context.seed``). The env is made with
@@ -120,7 +131,9 @@ def run_episode(baseline_spec: str, layout: str | Layout, seed: int, protocol: s
     observations, infos = env.reset(seed=seed)
     agents = list(env.agents)
     for index, (agent, baseline) in enumerate(zip(agents, baselines)):
-        context = EpisodeContext(layout, protocol, seed, agent=index, n_agents=n_agents, env_config=env_kwargs)
+        context = EpisodeContext(
+            layout, protocol, seed, agent=index, n_agents=n_agents, env_config=env_kwargs
+        )
         baseline.reset(context, observations[agent], infos[agent])
 
     world = env.unwrapped.world
@@ -130,7 +143,10 @@ def run_episode(baseline_spec: str, layout: str | Layout, seed: int, protocol: s
     steps = 0
     while env.agents:
         # Robots of a team all leave ``env.agents`` together, on the last step.
-        actions = {agent: baseline.act(observations[agent], infos[agent]) for agent, baseline in zip(agents, baselines)}
+        actions = {
+            agent: baseline.act(observations[agent], infos[agent])
+            for agent, baseline in zip(agents, baselines)
+        }
         observations, _, _, _, infos = env.step(actions)
         steps += 1
         positions.append([infos[agent]["pose"][:2] for agent in agents])
@@ -151,8 +167,16 @@ def run_episode(baseline_spec: str, layout: str | Layout, seed: int, protocol: s
 
 def run_job(job: EpisodeJob) -> EpisodeResult:
     """Play one job (a module-level function so that worker processes can receive it)."""
-    record, trajectory = run_episode(job.baseline, job.layout, job.episode_seed, job.protocol, job.n_agents,
-                                     job.env_kwargs, job.baseline_config, job.frame_every)
+    record, trajectory = run_episode(
+        job.baseline,
+        job.layout,
+        job.episode_seed,
+        job.protocol,
+        job.n_agents,
+        job.env_kwargs,
+        job.baseline_config,
+        job.frame_every,
+    )
     return EpisodeResult(job, record, trajectory)
 
 

@@ -120,7 +120,10 @@ class Layout:
         xmin, ymin, xmax, ymax = self.extent
         # ceil: the raster covers the whole map; a last partial pixel whose centre is off the
         # map is simply not floor
-        return (max(1, math.ceil((ymax - ymin) / RESOLUTION - 1e-9)), max(1, math.ceil((xmax - xmin) / RESOLUTION - 1e-9)))
+        return (
+            max(1, math.ceil((ymax - ymin) / RESOLUTION - 1e-9)),
+            max(1, math.ceil((xmax - xmin) / RESOLUTION - 1e-9)),
+        )
 
     @cached_property
     def origin(self) -> tuple[float, float]:
@@ -134,7 +137,10 @@ class Layout:
     def to_pixel(self, x: float, y: float) -> tuple[int, int]:
         x0, y0 = self.origin
         rows, cols = self.raster_shape
-        return (min(rows - 1, max(0, int((y - y0) / RESOLUTION))), min(cols - 1, max(0, int((x - x0) / RESOLUTION))))
+        return (
+            min(rows - 1, max(0, int((y - y0) / RESOLUTION))),
+            min(cols - 1, max(0, int((x - x0) / RESOLUTION))),
+        )
 
     @cached_property
     def free_raster(self) -> np.ndarray:
@@ -155,10 +161,10 @@ class Layout:
         length_sq = np.maximum((direction**2).sum(axis=1), 1e-12)
         nearest = np.empty(len(points))
         for begin in range(0, len(points), 4096):  # chunks keep the (points x walls) arrays small
-            chunk = points[begin: begin + 4096, None, :]
+            chunk = points[begin : begin + 4096, None, :]
             t = np.clip(((chunk - starts) * direction).sum(axis=2) / length_sq, 0.0, 1.0)
             offset = starts + t[..., None] * direction - chunk
-            nearest[begin: begin + 4096] = np.sqrt((offset**2).sum(axis=2)).min(axis=1)
+            nearest[begin : begin + 4096] = np.sqrt((offset**2).sum(axis=2)).min(axis=1)
         return nearest
 
     @cached_property
@@ -235,12 +241,32 @@ class Layout:
 
 # --------------------------------------------------------------------------------- loading
 _COMMON_KEYS = {
-    "name", "kind", "description", "source", "robot", "cells", "goals", "start", "max_steps",
-    "success_coverage", "cleared_cells", "cabin", "grid", "polygons",
+    "name",
+    "kind",
+    "description",
+    "source",
+    "robot",
+    "cells",
+    "goals",
+    "start",
+    "max_steps",
+    "success_coverage",
+    "cleared_cells",
+    "cabin",
+    "grid",
+    "polygons",
 }
 _CABIN_KEYS = {
-    "width", "seat_blocks", "block_widths", "aisle_width", "rows", "seat_pitch", "seat_depth",
-    "rows_per_cell", "front_clearance", "rear_clearance",
+    "width",
+    "seat_blocks",
+    "block_widths",
+    "aisle_width",
+    "rows",
+    "seat_pitch",
+    "seat_depth",
+    "rows_per_cell",
+    "front_clearance",
+    "rear_clearance",
 }
 
 
@@ -268,12 +294,16 @@ def load_layout(name_or_path: str | os.PathLike) -> Layout:
     candidate = Path(name_or_path)
     if candidate.suffix in (".yaml", ".yml") or candidate.exists():
         if not candidate.is_file():
-            raise LayoutError(str(candidate), "<file>", "no such file", "give an existing .yaml path or a layout name")
+            raise LayoutError(
+                str(candidate), "<file>", "no such file", "give an existing .yaml path or a layout name"
+            )
         return parse_layout(candidate.read_text(), source=str(candidate), default_name=candidate.stem)
     layouts = available_layouts()
     if str(name_or_path) not in layouts:
         raise LayoutError(
-            str(name_or_path), "<name>", "unknown layout",
+            str(name_or_path),
+            "<name>",
+            "unknown layout",
             f"use one of {', '.join(layouts)}, or a path to a .yaml file",
         )
     path = layouts[str(name_or_path)]
@@ -285,10 +315,17 @@ def parse_layout(text: str, source: str = "<string>", default_name: str = "layou
     try:
         spec = yaml.safe_load(text)
     except yaml.YAMLError as error:
-        raise LayoutError(source, "<file>", f"not valid YAML ({error})".replace("\n", " "), "fix the YAML syntax") from None
+        raise LayoutError(
+            source, "<file>", f"not valid YAML ({error})".replace("\n", " "), "fix the YAML syntax"
+        ) from None
     check = _Checker(source)
     if not isinstance(spec, dict):
-        raise LayoutError(source, "<file>", "the file is not a mapping of fields", "write 'kind: cabin|grid|polygons' and its block")
+        raise LayoutError(
+            source,
+            "<file>",
+            "the file is not a mapping of fields",
+            "write 'kind: cabin|grid|polygons' and its block",
+        )
     check.known_keys(spec, _COMMON_KEYS, "")
     kind = spec.get("kind")
     if kind not in ("cabin", "grid", "polygons"):
@@ -302,7 +339,12 @@ def parse_layout(text: str, source: str = "<string>", default_name: str = "layou
 
     if kind == "cabin":
         if "cells" in spec:
-            raise LayoutError(source, "cells", "cabin layouts derive their cells", "remove 'cells' and set cabin.rows_per_cell")
+            raise LayoutError(
+                source,
+                "cells",
+                "cabin layouts derive their cells",
+                "remove 'cells' and set cabin.rows_per_cell",
+            )
         boundary, obstacles, cells, default_start = _build_cabin(check, spec["cabin"], robot)
     elif kind == "grid":
         boundary, obstacles, default_start = _build_grid(check, spec["grid"])
@@ -330,7 +372,9 @@ def parse_layout(text: str, source: str = "<string>", default_name: str = "layou
         start=start,
         robot=robot,
         max_steps=check.positive_int(spec.get("max_steps", 3000), "max_steps"),
-        success_coverage=check.fraction(spec.get("success_coverage", DEFAULT_SUCCESS_COVERAGE), "success_coverage"),
+        success_coverage=check.fraction(
+            spec.get("success_coverage", DEFAULT_SUCCESS_COVERAGE), "success_coverage"
+        ),
         cleared_cells=_cleared_cells(check, spec.get("cleared_cells", 0), len(cells)),
         parameters=dict(spec[kind]) if isinstance(spec[kind], dict) else {"map": spec[kind]},
     )
@@ -352,13 +396,19 @@ class _Checker:
     def known_keys(self, mapping: dict, allowed: set[str], prefix: str):
         for key in mapping:
             if key not in allowed:
-                self.fail(f"{prefix}{key}", "unknown key", f"remove it; allowed here: {', '.join(sorted(allowed))}")
+                self.fail(
+                    f"{prefix}{key}", "unknown key", f"remove it; allowed here: {', '.join(sorted(allowed))}"
+                )
 
     def number(self, value, field_name: str, positive: bool = True, allow_zero: bool = False) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             self.fail(field_name, f"expected a number, got {value!r}", "write a number in metres/seconds")
         if positive and (value < 0 or (value == 0 and not allow_zero)):
-            self.fail(field_name, f"must be {'non-negative' if allow_zero else 'positive'}, got {value}", "use a size greater than zero")
+            self.fail(
+                field_name,
+                f"must be {'non-negative' if allow_zero else 'positive'}, got {value}",
+                "use a size greater than zero",
+            )
         return float(value)
 
     def positive_int(self, value, field_name: str) -> int:
@@ -379,12 +429,20 @@ class _Checker:
 
     def mapping(self, value, field_name: str) -> dict:
         if not isinstance(value, dict):
-            self.fail(field_name, f"expected a mapping, got {type(value).__name__}", "write 'key: value' lines under it")
+            self.fail(
+                field_name,
+                f"expected a mapping, got {type(value).__name__}",
+                "write 'key: value' lines under it",
+            )
         return value
 
     def point(self, value, field_name: str, size: int = 2) -> list[float]:
         if not isinstance(value, (list, tuple)) or len(value) != size:
-            self.fail(field_name, f"expected [{', '.join('xyz'[:size])}], got {value!r}", f"write a list of {size} numbers")
+            self.fail(
+                field_name,
+                f"expected [{', '.join('xyz'[:size])}], got {value!r}",
+                f"write a list of {size} numbers",
+            )
         return [self.number(v, f"{field_name}[{i}]", positive=False) for i, v in enumerate(value)]
 
     def polygon(self, value, field_name: str) -> np.ndarray:
@@ -394,9 +452,17 @@ class _Checker:
         if np.allclose(points[0], points[-1]):
             points = points[:-1]  # a repeated first point closes the ring explicitly
         if len(points) >= 4 and _self_intersects(points):
-            self.fail(field_name, "the polygon intersects itself", "order the corners around the outline without crossings")
+            self.fail(
+                field_name,
+                "the polygon intersects itself",
+                "order the corners around the outline without crossings",
+            )
         if len(points) < 3 or abs(_signed_area(points)) < 1e-9:
-            self.fail(field_name, "the polygon is not closed (zero area)", "give at least 3 distinct, non-collinear corners")
+            self.fail(
+                field_name,
+                "the polygon is not closed (zero area)",
+                "give at least 3 distinct, non-collinear corners",
+            )
         return points
 
     def robot(self, value) -> RobotSpec:
@@ -415,7 +481,11 @@ class _Checker:
             (xmin, ymin), (xmax, ymax) = boundary.min(axis=0), boundary.max(axis=0)
             return [Cell("cell_0", (xmin, ymin, xmax, ymax), np.zeros((0, 2)))]
         if not isinstance(value, list) or not value:
-            self.fail("cells", "expected a non-empty list", "list cells in visit order as {name, rect: [xmin, ymin, xmax, ymax]}")
+            self.fail(
+                "cells",
+                "expected a non-empty list",
+                "list cells in visit order as {name, rect: [xmin, ymin, xmax, ymax]}",
+            )
         cells = []
         for index, item in enumerate(value):
             item = self.mapping(item, f"cells[{index}]")
@@ -439,7 +509,11 @@ class _Checker:
 
 def _cleared_cells(check: _Checker, value, cell_count: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < cell_count:
-        check.fail("cleared_cells", f"expected 0 to {cell_count - 1}, got {value!r}", "leave at least the last cell to clean")
+        check.fail(
+            "cleared_cells",
+            f"expected 0 to {cell_count - 1}, got {value!r}",
+            "leave at least the last cell to clean",
+        )
     return value
 
 
@@ -488,8 +562,16 @@ def _build_cabin(check: _Checker, block: dict, robot: RobotSpec):
             check.fail(f"cabin.{required}", "missing", f"add cabin.{required} (see layouts/a320_cell.yaml)")
     width = check.number(block["width"], "cabin.width")
     seats = block["seat_blocks"]
-    if not isinstance(seats, list) or not seats or not all(isinstance(s, int) and not isinstance(s, bool) and s > 0 for s in seats):
-        check.fail("cabin.seat_blocks", f"expected a list of seat counts, got {seats!r}", "write e.g. [3, 3] or [3, 4, 3]")
+    if (
+        not isinstance(seats, list)
+        or not seats
+        or not all(isinstance(s, int) and not isinstance(s, bool) and s > 0 for s in seats)
+    ):
+        check.fail(
+            "cabin.seat_blocks",
+            f"expected a list of seat counts, got {seats!r}",
+            "write e.g. [3, 3] or [3, 4, 3]",
+        )
     aisle = check.number(block["aisle_width"], "cabin.aisle_width")
     rows = check.positive_int(block["rows"], "cabin.rows")
     pitch = check.number(block["seat_pitch"], "cabin.seat_pitch")
@@ -498,9 +580,17 @@ def _build_cabin(check: _Checker, block: dict, robot: RobotSpec):
     front = check.number(block.get("front_clearance", 0.0), "cabin.front_clearance", allow_zero=True)
     rear = check.number(block.get("rear_clearance", 0.0), "cabin.rear_clearance", allow_zero=True)
     if depth >= pitch:
-        check.fail("cabin.seat_depth", f"{depth} leaves no legroom at pitch {pitch}", "make seat_depth smaller than seat_pitch")
+        check.fail(
+            "cabin.seat_depth",
+            f"{depth} leaves no legroom at pitch {pitch}",
+            "make seat_depth smaller than seat_pitch",
+        )
     if rows % rows_per_cell:
-        check.fail("cabin.rows_per_cell", f"{rows} rows do not split into cells of {rows_per_cell}", "use a divisor of rows")
+        check.fail(
+            "cabin.rows_per_cell",
+            f"{rows} rows do not split into cells of {rows_per_cell}",
+            "use a divisor of rows",
+        )
     seats_width = width - aisle * (len(seats) - 1)
     if "block_widths" in block:
         widths = block["block_widths"]
@@ -508,12 +598,17 @@ def _build_cabin(check: _Checker, block: dict, robot: RobotSpec):
             check.fail("cabin.block_widths", f"expected {len(seats)} widths", "give one width per seat block")
         widths = [check.number(w, f"cabin.block_widths[{i}]") for i, w in enumerate(widths)]
         if abs(sum(widths) - seats_width) > 1e-6:
-            check.fail("cabin.block_widths", f"blocks {sum(widths):.3f} m + aisles do not make the width {width} m",
-                       f"make the widths sum to {seats_width:.3f}")
+            check.fail(
+                "cabin.block_widths",
+                f"blocks {sum(widths):.3f} m + aisles do not make the width {width} m",
+                f"make the widths sum to {seats_width:.3f}",
+            )
     else:
         widths = [seats_width * s / sum(seats) for s in seats]
     if seats_width <= 0:
-        check.fail("cabin.aisle_width", "the aisles take the whole width", "narrow the aisles or widen the cabin")
+        check.fail(
+            "cabin.aisle_width", "the aisles take the whole width", "narrow the aisles or widen the cabin"
+        )
 
     length = front + rows * pitch + rear
     legroom = pitch - depth
@@ -560,7 +655,9 @@ def _build_grid(check: _Checker, block: dict):
     lines = [line.strip() for line in text.strip().splitlines()]
     if any(len(line) != len(lines[0]) for line in lines):
         lengths = sorted({len(line) for line in lines})
-        check.fail("grid.map", f"ragged rows (lengths {lengths})", "make every row the same number of characters")
+        check.fail(
+            "grid.map", f"ragged rows (lengths {lengths})", "make every row the same number of characters"
+        )
     bad = set("".join(lines)) - set("#.S")
     if bad:
         check.fail("grid.map", f"unknown characters {sorted(bad)}", "use only '#', '.' and 'S'")
@@ -593,7 +690,9 @@ def _build_polygons(check: _Checker, block: dict):
     boundary = check.polygon(block["boundary"], "polygons.boundary")
     obstacles_spec = block.get("obstacles", [])
     if not isinstance(obstacles_spec, list):
-        check.fail("polygons.obstacles", "expected a list of polygons", "write obstacles: [[[x, y], ...], ...]")
+        check.fail(
+            "polygons.obstacles", "expected a list of polygons", "write obstacles: [[[x, y], ...], ...]"
+        )
     obstacles = [check.polygon(p, f"polygons.obstacles[{i}]") for i, p in enumerate(obstacles_spec)]
     return boundary, obstacles
 
@@ -605,7 +704,10 @@ def _assign_goals(check: _Checker, value, cells: list[Cell]) -> list[Cell]:
     points = [check.point(p, f"goals[{i}]") for i, p in enumerate(value)]
     per_cell: list[list] = [[] for _ in cells]
     for index, (x, y) in enumerate(points):
-        owner = next((i for i, c in enumerate(cells) if c.rect[0] <= x < c.rect[2] and c.rect[1] <= y < c.rect[3]), None)
+        owner = next(
+            (i for i, c in enumerate(cells) if c.rect[0] <= x < c.rect[2] and c.rect[1] <= y < c.rect[3]),
+            None,
+        )
         if owner is None:
             check.fail(f"goals[{index}]", f"point {[x, y]} lies in no cell", "move it inside a cell")
         per_cell[owner].append((x, y))
@@ -622,15 +724,25 @@ def _validate_geometry(check: _Checker, layout: Layout):
     if not layout.free_raster.any():
         check.fail("<geometry>", "the map has no free floor", "remove obstacles or enlarge the boundary")
     if layout.clearance.max() < layout.robot.radius + CONTACT_CLEARANCE:
-        check.fail("robot.radius", f"the robot (diameter {layout.robot.tool_width} m) is wider than every gap",
-                   "use a smaller robot or wider gaps")
+        check.fail(
+            "robot.radius",
+            f"the robot (diameter {layout.robot.tool_width} m) is wider than every gap",
+            "use a smaller robot or wider gaps",
+        )
     if layout.distance_to_walls([x, y])[0] < layout.robot.radius + CONTACT_CLEARANCE:
-        check.fail("start", f"({x}, {y}) is closer than the robot radius (+{CONTACT_CLEARANCE} m) to an obstacle",
-                   "move the start into open floor")
+        check.fail(
+            "start",
+            f"({x}, {y}) is closer than the robot radius (+{CONTACT_CLEARANCE} m) to an obstacle",
+            "move the start into open floor",
+        )
     for index, cell in enumerate(layout.cells):
         cxmin, cymin, cxmax, cymax = cell.rect
         if cxmin < xmin - 1e-9 or cymin < ymin - 1e-9 or cxmax > xmax + 1e-9 or cymax > ymax + 1e-9:
-            check.fail(f"cells[{index}].rect", f"{cell.rect} reaches outside the map {layout.extent}", "keep cells inside the map")
+            check.fail(
+                f"cells[{index}].rect",
+                f"{cell.rect} reaches outside the map {layout.extent}",
+                "keep cells inside the map",
+            )
 
 
 def _build_passages(layout: Layout) -> list[Passage]:
@@ -664,7 +776,13 @@ def _build_passages(layout: Layout) -> list[Passage]:
             else:
                 bounds.append((a, position, b, position))
                 exits.append((middle, position + direction * offset))
-        passages.append(Passage(index, np.array(bounds, dtype=float).reshape(-1, 4), np.array(exits, dtype=float).reshape(-1, 2)))
+        passages.append(
+            Passage(
+                index,
+                np.array(bounds, dtype=float).reshape(-1, 4),
+                np.array(exits, dtype=float).reshape(-1, 2),
+            )
+        )
     return passages
 
 
@@ -702,14 +820,24 @@ def _validate_reachability(check: _Checker, layout: Layout):
     distance_to_reachable = ndimage.distance_transform_edt(~centre_free) * RESOLUTION
     for cell_index, cell in enumerate(layout.cells):
         if not (layout.coverable_raster & (layout.cell_raster == cell_index)).any():
-            check.fail(f"cells[{cell_index}]", f"cell '{cell.name}' has no floor the robot can reach", "remove the cell or open a way into it")
+            check.fail(
+                f"cells[{cell_index}]",
+                f"cell '{cell.name}' has no floor the robot can reach",
+                "remove the cell or open a way into it",
+            )
         for goal_index, (x, y) in enumerate(cell.goals):
             iy, ix = layout.to_pixel(x, y)
             if not layout.free_raster[iy, ix] or distance_to_reachable[iy, ix] > layout.robot.radius:
-                check.fail("goals", f"goal {goal_index} of cell '{cell.name}' at ({x:.2f}, {y:.2f}) is out of the robot's reach",
-                           "move it where the robot can drive over it")
+                check.fail(
+                    "goals",
+                    f"goal {goal_index} of cell '{cell.name}' at ({x:.2f}, {y:.2f}) is out of the robot's reach",
+                    "move it where the robot can drive over it",
+                )
     for index, (here, there) in enumerate(zip(layout.cells, layout.cells[1:])):
         passage = next((p for p in layout.passages if p.index == index), None)
         if passage is None or not len(passage.exits):
-            check.fail(f"cells[{index + 1}]", f"cell '{there.name}' has no opening from '{here.name}'",
-                       "make consecutive cells share an edge with floor the robot fits through")
+            check.fail(
+                f"cells[{index + 1}]",
+                f"cell '{there.name}' has no opening from '{here.name}'",
+                "make consecutive cells share an edge with floor the robot fits through",
+            )

@@ -34,7 +34,9 @@ def layout_summary(name: str) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m cabinbench.layouts", description="List the available layouts.")
+    parser = argparse.ArgumentParser(
+        prog="python -m cabinbench.layouts", description="List the available layouts."
+    )
     parser.add_argument("--json", action="store_true", help="print a JSON list")
     args = parser.parse_args(argv)
     rows = [layout_summary(name) for name in available_layouts()]
@@ -46,8 +48,10 @@ def main(argv: list[str] | None = None) -> int:
     print("-" * len(header))
     for row in rows:
         size = f"{row['size_m'][0]:.2f}x{row['size_m'][1]:.2f}"
-        print(f"{row['name']:<20} {row['kind']:<6} {size:>12} {row['cells']:>5} {row['goals']:>5} {row['free_area_m2']:>8.2f} "
-              f"{row['coverable_area_m2']:>12.2f} {row['complexity_total']:>10.4f} {row['complexity_normalized']:>10.4f}")
+        print(
+            f"{row['name']:<20} {row['kind']:<6} {size:>12} {row['cells']:>5} {row['goals']:>5} {row['free_area_m2']:>8.2f} "
+            f"{row['coverable_area_m2']:>12.2f} {row['complexity_total']:>10.4f} {row['complexity_normalized']:>10.4f}"
+        )
     return 0
 
 

@@ -43,7 +43,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from functools import lru_cache
+from functools import cache, lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -56,6 +56,7 @@ from .metrics import CLEARANCE_BANDS, uncovered_by_clearance
 from .records import read_records, read_trajectories, safe_name
 from .render import COVERED, FLOOR, OBSTACLE, ROBOT_COLOURS
 from .stats import Summary, iqm, mean_ci, summarize
+from .training_records import plot_curves, read_metrics
 from .world import TIME_STEP
 
 ROW_KEY = ["layout", "baseline", "protocol", "n_agents"]
@@ -77,6 +78,10 @@ PNG_METADATA = {"Software": None}  # keeps committed figures free of the matplot
 CURVE_POINTS = 200
 ABLATION_METRICS = {"coverage": ".3f", "success": ".2f", "cells_cleared": ".2f"}  # metric → number format
 SHIPPED = "shipped"  # the policy a learned baseline runs when no checkpoint is given
+SIGNALS = (
+    "use_curiosity",
+    "use_gail",
+)  # the reward signals a learned baseline adds to PPO (its training config)
 
 
 # ------------------------------------------------------------------------------------ rows
@@ -118,7 +123,9 @@ def mixed_settings(key: dict, episodes: pd.DataFrame) -> list[str]:
     for name in CONFIG_FIELDS:
         distinct = sorted({repr(value) for value in episodes[name]})
         if len(distinct) > 1:
-            notes.append(f"{row_name(key)} pools {len(distinct)} different `{name}` values: {', '.join(distinct)}")
+            notes.append(
+                f"{row_name(key)} pools {len(distinct)} different `{name}` values: {', '.join(distinct)}"
+            )
     return notes
 
 
@@ -130,10 +137,19 @@ def row_name(key: dict) -> str:
 def csv_table(rows: list[dict]) -> pd.DataFrame:
     table = []
     for row in rows:
-        line = {name: row[name] for name in (*ROW_KEY, "episodes", "seeds", "complexity_normalized", "complexity_total")}
+        line = {
+            name: row[name]
+            for name in (*ROW_KEY, "episodes", "seeds", "complexity_normalized", "complexity_total")
+        }
         for metric in COLUMNS:
             summary: Summary = row[metric]
-            line.update({f"{metric}_mean": summary.mean, f"{metric}_ci_low": summary.low, f"{metric}_ci_high": summary.high})
+            line.update(
+                {
+                    f"{metric}_mean": summary.mean,
+                    f"{metric}_ci_low": summary.low,
+                    f"{metric}_ci_high": summary.high,
+                }
+            )
             if metric == "coverage":
                 line["coverage_iqm"] = row["coverage_iqm"]
             if summary.reached is not None:
@@ -172,16 +188,37 @@ def markdown(rows: list[dict], records: pd.DataFrame, runs: str, command: str, n
         "normalised / total. Metric definitions: `cabinbench/metrics.py`.",
         "",
     ]
-    titles = ["layout", "complexity", "baseline", "protocol", "K", "episodes", "seeds", "coverage", "coverage IQM",
-              *(title for metric, (title, _) in COLUMNS.items() if metric != "coverage")]
+    titles = [
+        "layout",
+        "complexity",
+        "baseline",
+        "protocol",
+        "K",
+        "episodes",
+        "seeds",
+        "coverage",
+        "coverage IQM",
+        *(title for metric, (title, _) in COLUMNS.items() if metric != "coverage"),
+    ]
     lines.append("| " + " | ".join(titles) + " |")
     lines.append("|" + "|".join("---" if index < 5 else "---:" for index in range(len(titles))) + "|")
     for row in rows:
-        cells = [row["layout"], f"{row['complexity_normalized']:.4f} / {row['complexity_total']:.2f}", row["baseline"],
-                 row["protocol"], str(row["n_agents"]), str(row["episodes"]), str(row["seeds"]),
-                 markdown_cell(row["coverage"], ".3f"), f"{row['coverage_iqm']:.3f}"]
-        cells += [markdown_cell(row[metric], number_format) for metric, (_, number_format) in COLUMNS.items()
-                  if metric != "coverage"]
+        cells = [
+            row["layout"],
+            f"{row['complexity_normalized']:.4f} / {row['complexity_total']:.2f}",
+            row["baseline"],
+            row["protocol"],
+            str(row["n_agents"]),
+            str(row["episodes"]),
+            str(row["seeds"]),
+            markdown_cell(row["coverage"], ".3f"),
+            f"{row['coverage_iqm']:.3f}",
+        ]
+        cells += [
+            markdown_cell(row[metric], number_format)
+            for metric, (_, number_format) in COLUMNS.items()
+            if metric != "coverage"
+        ]
         lines.append("| " + " | ".join(cells) + " |")
     if notes:
         lines += ["", "Notes:", "", *(f"- {note}" for note in notes)]
@@ -189,7 +226,7 @@ def markdown(rows: list[dict], records: pd.DataFrame, runs: str, command: str, n
 
 
 # ------------------------------------------------------------------------ where the uncovered floor lies
-@lru_cache(maxsize=None)
+@cache
 def recorded_layout(name: str, content_hash: str):
     """The layout a run recorded, or None when it cannot be loaded or its file has changed since."""
     try:
@@ -206,14 +243,30 @@ def uncovered_rows(groups: list[tuple[dict, pd.DataFrame]]) -> tuple[list[dict],
     for key, episodes in groups:
         layout = recorded_layout(key["layout"], episodes["layout_hash"].iloc[0])
         if layout is None or episodes["layout_hash"].nunique() > 1:
-            notes.append(f"{row_name(key)}: left out of the uncovered table: its layout cannot be loaded, or is not the one it was run on")
+            notes.append(
+                f"{row_name(key)}: left out of the uncovered table: its layout cannot be loaded, or is not the one it was run on"
+            )
             continue
-        uncovered = [uncovered_by_clearance(stored_run(source).episodes[int(episode)]["pass_count"],
-                                            layout.coverable_raster, layout.clearance)
-                     for source, episode in zip(episodes["source"], episodes["episode"])]
-        share = uncovered_by_clearance(np.zeros(layout.raster_shape), layout.coverable_raster, layout.clearance)
-        rows.append({**key, "episodes": len(episodes), "coverage": float(episodes["coverage"].mean()),
-                     "uncovered": np.mean(uncovered, axis=0), "share": share})
+        uncovered = [
+            uncovered_by_clearance(
+                stored_run(source).episodes[int(episode)]["pass_count"],
+                layout.coverable_raster,
+                layout.clearance,
+            )
+            for source, episode in zip(episodes["source"], episodes["episode"])
+        ]
+        share = uncovered_by_clearance(
+            np.zeros(layout.raster_shape), layout.coverable_raster, layout.clearance
+        )
+        rows.append(
+            {
+                **key,
+                "episodes": len(episodes),
+                "coverage": float(episodes["coverage"].mean()),
+                "uncovered": np.mean(uncovered, axis=0),
+                "share": share,
+            }
+        )
     return rows, notes
 
 
@@ -251,8 +304,15 @@ def uncovered_markdown(rows: list[dict], runs: str, command: str, notes: list[st
         "|---|---|---|---|---:|---:|" + "---:|" * len(CLEARANCE_BANDS),
     ]
     for row in rows:
-        cells = [row["layout"], row["baseline"], row["protocol"], str(row["n_agents"]), str(row["episodes"]),
-                 f"{row['coverage']:.3f}", *(f"{uncovered:.3f} / {share:.3f}" for uncovered, share in zip(row["uncovered"], row["share"]))]
+        cells = [
+            row["layout"],
+            row["baseline"],
+            row["protocol"],
+            str(row["n_agents"]),
+            str(row["episodes"]),
+            f"{row['coverage']:.3f}",
+            *(f"{uncovered:.3f} / {share:.3f}" for uncovered, share in zip(row["uncovered"], row["share"])),
+        ]
         lines.append("| " + " | ".join(cells) + " |")
     if notes:
         lines += ["", "Notes:", "", *(f"- {note}" for note in notes)]
@@ -284,8 +344,11 @@ def trajectory_figure(key: dict, first: pd.Series, path: Path) -> None:
         axes.plot(path_xy[:, 0], path_xy[:, 1], color=colour, linewidth=0.8)
         axes.plot(*path_xy[0], "o", color=colour, markersize=5)
         axes.plot(*path_xy[-1], "s", color=colour, markersize=5)
-    axes.set_title(f"{row_name(key)}\nseed {first['seed'] + first['episode']}: coverage {first['coverage']:.3f} "
-                   f"in {first['time']:.0f} s", fontsize=9)
+    axes.set_title(
+        f"{row_name(key)}\nseed {first['seed'] + first['episode']}: coverage {first['coverage']:.3f} "
+        f"in {first['time']:.0f} s",
+        fontsize=9,
+    )
     axes.set_xlabel("x (m)")
     axes.set_ylabel("y (m)")
     save_figure(figure, path)
@@ -300,7 +363,9 @@ def coverage_curves(episodes: pd.DataFrame, times: np.ndarray) -> np.ndarray:
     return np.array(curves)
 
 
-def coverage_time_figure(layout: str, groups: list[tuple[dict, pd.DataFrame]], colours: dict, path: Path) -> None:
+def coverage_time_figure(
+    layout: str, groups: list[tuple[dict, pd.DataFrame]], colours: dict, path: Path
+) -> None:
     """Coverage over simulated time on one layout: median over episodes and interquartile band."""
     end = max(float(episodes["time"].max()) for _, episodes in groups)
     times = np.linspace(0.0, end, CURVE_POINTS)
@@ -330,11 +395,16 @@ def bar_figure(rows: list[dict], metric: str, ylabel: str, colours: dict, path: 
     axes = figure.subplots()
     for index, label in enumerate(labels):
         chosen = {row["layout"]: row[metric] for row in rows if row_label(row) == label}
-        positions = [layout_index + (index - (len(labels) - 1) / 2) * width
-                     for layout_index, layout in enumerate(layouts) if layout in chosen]
+        positions = [
+            layout_index + (index - (len(labels) - 1) / 2) * width
+            for layout_index, layout in enumerate(layouts)
+            if layout in chosen
+        ]
         summaries = [chosen[layout] for layout in layouts if layout in chosen]
         means = np.array([summary.mean for summary in summaries])
-        errors = np.nan_to_num(np.array([[summary.mean - summary.low, summary.high - summary.mean] for summary in summaries]).T)
+        errors = np.nan_to_num(
+            np.array([[summary.mean - summary.low, summary.high - summary.mean] for summary in summaries]).T
+        )
         axes.bar(positions, means, width, yerr=errors, capsize=3, label=label, color=colours[label])
     axes.set_xticks(range(len(layouts)), layouts, rotation=20, ha="right")
     axes.set_ylabel(ylabel)
@@ -353,25 +423,41 @@ def makespan_figure(groups: list[tuple[dict, pd.DataFrame]], path: Path) -> bool
     for key, episodes in groups:
         values = episodes["makespan"] if key["n_agents"] > 1 else episodes["time"]
         series.setdefault((key["layout"], key["baseline"], key["protocol"]), []).append(
-            (key["n_agents"], mean_ci(values), bool(episodes["success"].all())))
-    series = {name: sorted(points, key=lambda point: point[0]) for name, points in series.items()
-              if len(points) > 1 and all(success for *_, success in points) and points[0][0] == 1}
+            (key["n_agents"], mean_ci(values), bool(episodes["success"].all()))
+        )
+    series = {
+        name: sorted(points, key=lambda point: point[0])
+        for name, points in series.items()
+        if len(points) > 1 and all(success for *_, success in points) and points[0][0] == 1
+    }
     if not series:
         return False
     layouts = sorted({layout for layout, *_ in series})
     figure = Figure(figsize=(5.0 * len(layouts), 4.0))
     for axes, layout in zip(np.atleast_1d(figure.subplots(1, len(layouts))), layouts):
-        for (_, baseline, protocol), points in sorted(item for item in series.items() if item[0][0] == layout):
+        for (_, baseline, protocol), points in sorted(
+            item for item in series.items() if item[0][0] == layout
+        ):
             agents = np.array([k for k, *_ in points])
             means = np.array([summary.mean for _, summary, _ in points])
             errors = np.nan_to_num(np.array([[s.mean - s.low, s.high - s.mean] for _, s, _ in points]).T)
-            line = axes.errorbar(agents, means, yerr=errors, marker="o", capsize=3, label=f"{baseline} / {protocol}")
+            line = axes.errorbar(
+                agents, means, yerr=errors, marker="o", capsize=3, label=f"{baseline} / {protocol}"
+            )
             axes.plot(agents, means[0] / agents, linestyle="--", color=line[0].get_color(), alpha=0.5)
             for k, mean in zip(agents[1:], means[1:]):
-                axes.annotate(f"×{means[0] / mean:.2f}", (k, mean), textcoords="offset points", xytext=(6, 4), fontsize=7)
+                axes.annotate(
+                    f"×{means[0] / mean:.2f}",
+                    (k, mean),
+                    textcoords="offset points",
+                    xytext=(6, 4),
+                    fontsize=7,
+                )
         axes.set_xlabel("robots (K)")
         axes.set_ylabel("makespan (simulated s)")
-        axes.set_xticks(sorted({k for name, points in series.items() if name[0] == layout for k, *_ in points}))
+        axes.set_xticks(
+            sorted({k for name, points in series.items() if name[0] == layout for k, *_ in points})
+        )
         axes.set_ylim(bottom=0)
         axes.set_title(f"{layout}: mean, 95% interval; dashed: T(1)/K", fontsize=10)
         axes.legend(fontsize=7)
@@ -383,16 +469,18 @@ def makespan_figure(groups: list[tuple[dict, pd.DataFrame]], path: Path) -> bool
 def training_figures(training: Path, folder: Path) -> list[Path]:
     """``training__<baseline>.png`` for every ``<training>/<baseline>/metrics.csv`` (with its ``validation.csv``, if
     any)."""
-    from baselines.ppo_gail.training import plot_curves, read_metrics
-
     written = []
     for metrics in sorted(training.glob("*/metrics.csv")):
         config = json.loads((metrics.parent / "config.json").read_text(encoding="utf-8"))
         path = folder / f"training__{safe_name(metrics.parent.name)}.png"
         validation = metrics.parent / "validation.csv"
-        plot_curves(read_metrics(metrics), path, title=f"{config['ablation']} on {' + '.join(config['layouts'])}, "
-                                                       f"seed {config['seed']}: training curves",
-                    validation=read_metrics(validation) if validation.exists() else None)
+        plot_curves(
+            read_metrics(metrics),
+            path,
+            title=f"{config['ablation']} on {' + '.join(config['layouts'])}, "
+            f"seed {config['seed']}: training curves",
+            validation=read_metrics(validation) if validation.exists() else None,
+        )
         written.append(path)
     return written
 
@@ -400,15 +488,23 @@ def training_figures(training: Path, folder: Path) -> list[Path]:
 def write_figures(groups: list[tuple[dict, pd.DataFrame]], rows: list[dict], folder: Path) -> list[Path]:
     folder.mkdir(parents=True, exist_ok=True)
     # One colour per baseline setting, the same in every figure.
-    colours = {label: colormaps["tab10"](index % 10) for index, label in enumerate(sorted({row_label(row) for row in rows}))}
+    colours = {
+        label: colormaps["tab10"](index % 10)
+        for index, label in enumerate(sorted({row_label(row) for row in rows}))
+    }
     written = []
     for key, episodes in groups:
-        path = folder / f"trajectory__{'__'.join(safe_name(key[name]) for name in ('layout', 'baseline', 'protocol'))}__k{key['n_agents']}.png"
+        path = (
+            folder
+            / f"trajectory__{'__'.join(safe_name(key[name]) for name in ('layout', 'baseline', 'protocol'))}__k{key['n_agents']}.png"
+        )
         trajectory_figure(key, episodes.iloc[0], path)
         written.append(path)
     for layout in sorted({key["layout"] for key, _ in groups}):
         path = folder / f"coverage_time__{safe_name(layout)}.png"
-        coverage_time_figure(layout, [group for group in groups if group[0]["layout"] == layout], colours, path)
+        coverage_time_figure(
+            layout, [group for group in groups if group[0]["layout"] == layout], colours, path
+        )
         written.append(path)
     for metric, ylabel in (("coverage", "coverage"), ("time", "time (s)")):
         path = folder / f"bars_{metric}.png"
@@ -430,25 +526,45 @@ def policy_name(policy: str) -> str:
     return policy if policy == SHIPPED else Path(policy).parent.name or policy
 
 
-def ablation_rows(records: pd.DataFrame) -> list[dict]:
+def ablation_rows(records: pd.DataFrame, training: Path) -> list[dict]:
     """Per (layout, learned baseline), sequential and one robot: each trained policy's mean of every
-    ``ABLATION_METRICS`` metric over its episodes (the shipped policy first), in table order."""
-    from baselines.ppo_gail.algorithm import ABLATIONS
-
-    learned = records[records["baseline"].isin(list(ABLATIONS)) & (records["protocol"] == "sequential")
-                      & (records["n_agents"] == 1)]
+    ``ABLATION_METRICS`` metric over its episodes (the shipped policy first), in table order. The learned
+    baselines and their reward signals are those of the shipped training records, ``<training>/<baseline>/``."""
+    signals = ablation_signals(training)
+    learned = records[
+        records["baseline"].isin(list(signals))
+        & (records["protocol"] == "sequential")
+        & (records["n_agents"] == 1)
+    ]
     learned = learned.assign(policy=[policy_of(config) for config in learned["baseline_config"]])
     rows = []
     for (layout, baseline), episodes in learned.groupby(["layout", "baseline"]):
         policies = sorted(episodes.groupby("policy"), key=lambda item: (item[0] != SHIPPED, item[0]))
-        rows.append({
-            "layout": layout, "baseline": baseline, **ABLATIONS[baseline],
-            "policies": [policy for policy, _ in policies],
-            "episodes": [len(group) for _, group in policies],
-            **{metric: [float(group[metric].mean()) for _, group in policies] for metric in ABLATION_METRICS},
-        })
-    baseline_order = list(ABLATIONS)
+        rows.append(
+            {
+                "layout": layout,
+                "baseline": baseline,
+                **signals[baseline],
+                "policies": [policy for policy, _ in policies],
+                "episodes": [len(group) for _, group in policies],
+                **{
+                    metric: [float(group[metric].mean()) for _, group in policies]
+                    for metric in ABLATION_METRICS
+                },
+            }
+        )
+    baseline_order = list(signals)
     return sorted(rows, key=lambda row: (row["layout"], baseline_order.index(row["baseline"])))
+
+
+def ablation_signals(training: Path) -> dict[str, dict[str, bool]]:
+    """``{baseline: {"use_curiosity": ..., "use_gail": ...}}`` from each ``<training>/<baseline>/config.json``, in the
+    study's order: PPO alone, + curiosity, + GAIL, + both."""
+    signals = {}
+    for path in sorted(training.glob("*/config.json")):
+        config = json.loads(path.read_text(encoding="utf-8"))
+        signals[path.parent.name] = {name: bool(config[name]) for name in SIGNALS}
+    return dict(sorted(signals.items(), key=lambda item: (item[1]["use_gail"], item[1]["use_curiosity"])))
 
 
 def ablation_figure(rows: list[dict], path: Path) -> None:
@@ -464,9 +580,18 @@ def ablation_figure(rows: list[dict], path: Path) -> None:
         offset = (index - (len(baselines) - 1) / 2) * width
         positions = [layout_index + offset for layout_index, layout in enumerate(layouts) if layout in chosen]
         values = [chosen[layout] for layout in layouts if layout in chosen]
-        axes.bar(positions, [np.mean(policies) for policies in values], width, color=colour, alpha=0.6, label=baseline)
+        axes.bar(
+            positions,
+            [np.mean(policies) for policies in values],
+            width,
+            color=colour,
+            alpha=0.6,
+            label=baseline,
+        )
         for position, policies in zip(positions, values):
-            axes.plot([position] * len(policies), policies, "o", color=colour, markeredgecolor="black", markersize=4)
+            axes.plot(
+                [position] * len(policies), policies, "o", color=colour, markeredgecolor="black", markersize=4
+            )
     axes.set_xticks(range(len(layouts)), layouts, rotation=20, ha="right")
     axes.set_ylabel("coverage")
     axes.set_ylim(0, 1.0)
@@ -481,9 +606,15 @@ def ablation_csv(rows: list[dict]) -> pd.DataFrame:
     lines = []
     for row in rows:
         for index, policy in enumerate(row["policies"]):
-            lines.append({"layout": row["layout"], "baseline": row["baseline"], "policy": policy,
-                          "episodes": row["episodes"][index],
-                          **{metric: row[metric][index] for metric in ABLATION_METRICS}})
+            lines.append(
+                {
+                    "layout": row["layout"],
+                    "baseline": row["baseline"],
+                    "policy": policy,
+                    "episodes": row["episodes"][index],
+                    **{metric: row[metric][index] for metric in ABLATION_METRICS},
+                }
+            )
     return pd.DataFrame(lines)
 
 
@@ -506,28 +637,50 @@ def ablation_markdown(rows: list[dict], sources: str, command: str) -> str:
         "is the uncertainty to read. Sequential protocol, one robot; zero-shot on all but `a320_cell`.",
         "",
         "| layout | baseline | ICM | GAIL | policies | episodes | "
-        + " | ".join(metric for metric in ABLATION_METRICS) + " | per policy: coverage / cells_cleared |",
+        + " | ".join(metric for metric in ABLATION_METRICS)
+        + " | per policy: coverage / cells_cleared |",
         "|---|---|---|---|---:|---:|" + "---:|" * len(ABLATION_METRICS) + "---|",
     ]
     for row in rows:
-        per_policy = ", ".join(f"{policy_name(policy)} {coverage:.3f} / {cells:.2f}"
-                               for policy, coverage, cells in zip(row["policies"], row["coverage"], row["cells_cleared"]))
-        cells = [row["layout"], row["baseline"], "yes" if row["use_curiosity"] else "no", "yes" if row["use_gail"] else "no",
-                 str(len(row["policies"])), str(sum(row["episodes"])),
-                 *(spread(row[metric], number_format) for metric, number_format in ABLATION_METRICS.items()), per_policy]
+        per_policy = ", ".join(
+            f"{policy_name(policy)} {coverage:.3f} / {cells:.2f}"
+            for policy, coverage, cells in zip(row["policies"], row["coverage"], row["cells_cleared"])
+        )
+        cells = [
+            row["layout"],
+            row["baseline"],
+            "yes" if row["use_curiosity"] else "no",
+            "yes" if row["use_gail"] else "no",
+            str(len(row["policies"])),
+            str(sum(row["episodes"])),
+            *(spread(row[metric], number_format) for metric, number_format in ABLATION_METRICS.items()),
+            per_policy,
+        ]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
 # ------------------------------------------------------------------------------------ main
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m cabinbench.leaderboard", description="Regenerate the leaderboard tables and figures from the per-episode records.")
+    parser = argparse.ArgumentParser(
+        prog="python -m cabinbench.leaderboard",
+        description="Regenerate the leaderboard tables and figures from the per-episode records.",
+    )
     parser.add_argument("--runs", default="results/runs", help="folder of run records (default results/runs)")
-    parser.add_argument("--training", default="results/training", help="folder of shipped training records (default results/training)")
-    parser.add_argument("--ablation-runs",
-                        help="folder of run records of further training runs' policies (default: ablation_runs beside --runs)")
-    parser.add_argument("--out", default="results",
-                        help="folder for leaderboard.{md,csv}, uncovered.{md,csv}, ablation.{md,csv} and figures/ (default results)")
+    parser.add_argument(
+        "--training",
+        default="results/training",
+        help="folder of shipped training records (default results/training)",
+    )
+    parser.add_argument(
+        "--ablation-runs",
+        help="folder of run records of further training runs' policies (default: ablation_runs beside --runs)",
+    )
+    parser.add_argument(
+        "--out",
+        default="results",
+        help="folder for leaderboard.{md,csv}, uncovered.{md,csv}, ablation.{md,csv} and figures/ (default results)",
+    )
     args = parser.parse_args(argv)
     records = read_records(args.runs) if Path(args.runs).is_dir() else pd.DataFrame()
     if records.empty:
@@ -547,22 +700,39 @@ def main(argv: list[str] | None = None) -> int:
     uncovered, uncovered_notes = uncovered_rows(groups)
     for note in uncovered_notes:
         print(f"warning: {note}", file=sys.stderr)
-    (out / "uncovered.md").write_text(uncovered_markdown(uncovered, args.runs, command, uncovered_notes), encoding="utf-8")
-    uncovered_csv(uncovered).to_csv(out / "uncovered.csv", index=False, float_format="%.6g", lineterminator="\n")
-    figures = write_figures(groups, rows, out / "figures") + training_figures(Path(args.training), out / "figures")
-    print(f"{len(rows)} rows from {len(records)} episodes: {out / 'leaderboard.md'}, {out / 'leaderboard.csv'}, "
-          f"{len(figures)} figures in {out / 'figures'}")
+    (out / "uncovered.md").write_text(
+        uncovered_markdown(uncovered, args.runs, command, uncovered_notes), encoding="utf-8"
+    )
+    uncovered_csv(uncovered).to_csv(
+        out / "uncovered.csv", index=False, float_format="%.6g", lineterminator="\n"
+    )
+    figures = write_figures(groups, rows, out / "figures") + training_figures(
+        Path(args.training), out / "figures"
+    )
+    print(
+        f"{len(rows)} rows from {len(records)} episodes: {out / 'leaderboard.md'}, {out / 'leaderboard.csv'}, "
+        f"{len(figures)} figures in {out / 'figures'}"
+    )
     ablation_runs = Path(args.ablation_runs or Path(args.runs).parent / "ablation_runs").as_posix()
     further = read_records(ablation_runs) if Path(ablation_runs).is_dir() else pd.DataFrame()
-    learned = ablation_rows(pd.concat([records, further], ignore_index=True) if not further.empty else records)
+    learned = ablation_rows(
+        pd.concat([records, further], ignore_index=True) if not further.empty else records,
+        Path(args.training),
+    )
     if learned:
         sources = f"`{args.runs}` (shipped policies) and `{ablation_runs}` (the others)"
         (out / "ablation.md").write_text(
-            ablation_markdown(learned, sources, f"{command} --ablation-runs {ablation_runs}"), encoding="utf-8")
-        ablation_csv(learned).to_csv(out / "ablation.csv", index=False, float_format="%.6g", lineterminator="\n")
+            ablation_markdown(learned, sources, f"{command} --ablation-runs {ablation_runs}"),
+            encoding="utf-8",
+        )
+        ablation_csv(learned).to_csv(
+            out / "ablation.csv", index=False, float_format="%.6g", lineterminator="\n"
+        )
         ablation_figure(learned, out / "figures" / "ablation_coverage.png")
-        print(f"{len(learned)} ablation rows: {out / 'ablation.md'}, {out / 'ablation.csv'}, "
-              f"{out / 'figures' / 'ablation_coverage.png'}")
+        print(
+            f"{len(learned)} ablation rows: {out / 'ablation.md'}, {out / 'ablation.csv'}, "
+            f"{out / 'figures' / 'ablation_coverage.png'}"
+        )
     return 0
 
 

@@ -35,8 +35,21 @@ class LidarConfig:
 
 
 @njit(cache=True, fastmath=True)
-def cast_rays(x, y, heading, ray_angles, max_range, segments, segment_tags, segment_on,
-              circles, circle_tags, circle_on, distances, tags):
+def cast_rays(
+    x,
+    y,
+    heading,
+    ray_angles,
+    max_range,
+    segments,
+    segment_tags,
+    segment_on,
+    circles,
+    circle_tags,
+    circle_on,
+    distances,
+    tags,
+):
     """Fill ``distances`` (max_range where nothing is hit) and ``tags`` for one robot.
 
     ``segments`` is (S, 4) [x0, y0, x1, y1]; ``circles`` is (C, 3) [x, y, radius]. Entries whose

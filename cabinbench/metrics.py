@@ -45,8 +45,21 @@ from .world import TIME_STEP, StepEvents, World
 
 COVERAGE_THRESHOLDS = (0.90, 0.95, 0.99)
 METRICS = (
-    "coverage", "coverage_free", "path_length", "path_efficiency", "time", "steps", "t90", "t95",
-    "t99", "collisions", "bound_violations", "rotation", "overlap", "cells_cleared", "success",
+    "coverage",
+    "coverage_free",
+    "path_length",
+    "path_efficiency",
+    "time",
+    "steps",
+    "t90",
+    "t95",
+    "t99",
+    "collisions",
+    "bound_violations",
+    "rotation",
+    "overlap",
+    "cells_cleared",
+    "success",
     "wall_time",
 )
 TEAM_METRICS = ("n_agents", "robot_collisions", "path_lengths", "makespan", "load_balance")
@@ -61,8 +74,12 @@ def overlap(pass_count: np.ndarray) -> float:
     return float((pass_count[covered].astype(np.int64) - 1).sum() / covered.sum()) if covered.any() else 0.0
 
 
-def uncovered_by_clearance(pass_count: np.ndarray, coverable_mask: np.ndarray, clearance: np.ndarray,
-                           bands: tuple[float, ...] = CLEARANCE_BANDS) -> np.ndarray:
+def uncovered_by_clearance(
+    pass_count: np.ndarray,
+    coverable_mask: np.ndarray,
+    clearance: np.ndarray,
+    bands: tuple[float, ...] = CLEARANCE_BANDS,
+) -> np.ndarray:
     """Uncovered coverable area in each band of ``clearance`` (a pixel centre's distance to the nearest wall,
     :attr:`~cabinbench.layout.Layout.clearance`) over the whole coverable area: the entries sum to 1 - coverage.
     With a ``pass_count`` of zeros: each band's share of the coverable area."""
@@ -86,7 +103,9 @@ class EpisodeTracker:
         self.initial_coverable_pixels = world.covered_coverable_pixels
         self.threshold_times: dict[float, float | None] = {t: None for t in COVERAGE_THRESHOLDS}
         self._unreached_thresholds = list(COVERAGE_THRESHOLDS)  # ascending; coverage never drops
-        self._poses = array.array("d", world.poses.tobytes())  # every step's poses, flat: compact for long episodes
+        self._poses = array.array(
+            "d", world.poses.tobytes()
+        )  # every step's poses, flat: compact for long episodes
         self._note_thresholds()
 
     def update(self, events: StepEvents) -> None:

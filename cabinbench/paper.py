@@ -19,13 +19,17 @@ from .layouts import layout_summary
 
 
 def layouts_table() -> str:
-    lines = ["| layout | kind | size (m) | cells | goals | free m² | coverable m² | complexity (total) | complexity (normalized) |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| layout | kind | size (m) | cells | goals | free m² | coverable m² | complexity (total) | complexity (normalized) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for name in available_layouts():
         row = layout_summary(name)
-        lines.append(f"| `{row['name']}` | {row['kind']} | {row['size_m'][0]:.2f} × {row['size_m'][1]:.2f} | {row['cells']} | "
-                     f"{row['goals']} | {row['free_area_m2']:.2f} | {row['coverable_area_m2']:.2f} | "
-                     f"{row['complexity_total']:.4f} | {row['complexity_normalized']:.4f} |")
+        lines.append(
+            f"| `{row['name']}` | {row['kind']} | {row['size_m'][0]:.2f} × {row['size_m'][1]:.2f} | {row['cells']} | "
+            f"{row['goals']} | {row['free_area_m2']:.2f} | {row['coverable_area_m2']:.2f} | "
+            f"{row['complexity_total']:.4f} | {row['complexity_normalized']:.4f} |"
+        )
     return "\n".join(lines)
 
 
@@ -60,14 +64,19 @@ def build(template: Path, results: Path, out: Path) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m cabinbench.paper", description="Build paper/paper.md from the template and results/.")
+    parser = argparse.ArgumentParser(
+        prog="python -m cabinbench.paper", description="Build paper/paper.md from the template and results/."
+    )
     parser.add_argument("--template", default="paper/template.md")
     parser.add_argument("--results", default="results")
     parser.add_argument("--out", default="paper/paper.md")
     args = parser.parse_args(argv)
     results = Path(args.results)
     if not (results / "leaderboard.md").is_file():
-        print(f"{results / 'leaderboard.md'} is missing: run `python -m cabinbench.leaderboard` first", file=sys.stderr)
+        print(
+            f"{results / 'leaderboard.md'} is missing: run `python -m cabinbench.leaderboard` first",
+            file=sys.stderr,
+        )
         return 1
     out = Path(args.out)
     out.write_text(build(Path(args.template), results, out), encoding="utf-8")

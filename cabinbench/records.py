@@ -55,8 +55,19 @@ from .complexity import layout_complexity
 from .layout import RESOLUTION, Layout
 
 RECORD_FIELDS = (
-    "benchmark_version", "git_commit", "layout", "layout_hash", "layout_complexity", "baseline",
-    "baseline_config", "protocol", "n_agents", "seed", "episode", "env_config", "timestamp",
+    "benchmark_version",
+    "git_commit",
+    "layout",
+    "layout_hash",
+    "layout_complexity",
+    "baseline",
+    "baseline_config",
+    "protocol",
+    "n_agents",
+    "seed",
+    "episode",
+    "env_config",
+    "timestamp",
 )
 TRAJECTORY_STRIDE = 5  # steps between stored positions: 0.25 m at full speed, under a robot radius
 
@@ -69,8 +80,14 @@ def git_commit() -> str | None:
     that repository's commit."""
     package = Path(__file__).resolve().parent
     try:
-        result = subprocess.run(["git", "rev-parse", "--show-toplevel", "HEAD"], cwd=package, capture_output=True,
-                                text=True, timeout=10, check=False)
+        result = subprocess.run(
+            ["git", "rev-parse", "--show-toplevel", "HEAD"],
+            cwd=package,
+            capture_output=True,
+            text=True,
+            timeout=10,
+            check=False,
+        )
     except (OSError, subprocess.SubprocessError):
         return None
     output = result.stdout.split()
@@ -79,8 +96,15 @@ def git_commit() -> str | None:
     return output[1] if re.fullmatch(r"[0-9a-f]{40}", output[1]) else None
 
 
-def run_header(layout: Layout, baseline: str, baseline_config: dict, protocol: str, n_agents: int, seed: int,
-               env_config: dict) -> dict:
+def run_header(
+    layout: Layout,
+    baseline: str,
+    baseline_config: dict,
+    protocol: str,
+    n_agents: int,
+    seed: int,
+    env_config: dict,
+) -> dict:
     """The fields shared by every record of a run (all of RECORD_FIELDS but ``episode`` and ``timestamp``)."""
     complexity = layout_complexity(layout)
     return {
@@ -88,7 +112,10 @@ def run_header(layout: Layout, baseline: str, baseline_config: dict, protocol: s
         "git_commit": git_commit(),
         "layout": layout.name,
         "layout_hash": layout.content_hash,
-        "layout_complexity": {"normalized": round(complexity.normalized, 6), "total": round(complexity.total, 6)},
+        "layout_complexity": {
+            "normalized": round(complexity.normalized, 6),
+            "total": round(complexity.total, 6),
+        },
         "baseline": baseline,
         "baseline_config": baseline_config,
         "protocol": protocol,
@@ -108,8 +135,13 @@ def run_path(out_dir: str | os.PathLike, header: dict) -> Path:
     empty: the name is claimed at once (exclusive create), so runs of the same setting started in the same second,
     in parallel into one folder, each get a file of their own (``-1``, ``-2`` ...)."""
     now = datetime.datetime.now(datetime.timezone.utc)
-    parts = [header["layout"], header["baseline"], header["protocol"], f"k{header['n_agents']}",
-             f"seed{header['seed']}-{now:%Y%m%dT%H%M%SZ}"]
+    parts = [
+        header["layout"],
+        header["baseline"],
+        header["protocol"],
+        f"k{header['n_agents']}",
+        f"seed{header['seed']}-{now:%Y%m%dT%H%M%SZ}",
+    ]
     stem = "__".join(map(safe_name, parts))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -149,7 +181,9 @@ class RunWriter:
         self.path, self.header = Path(path), header
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.trajectories: dict[str, np.ndarray] = {
-            "floor": layout.free_raster, "origin": np.array(layout.origin), "resolution": np.array(RESOLUTION),
+            "floor": layout.free_raster,
+            "origin": np.array(layout.origin),
+            "resolution": np.array(RESOLUTION),
         }
 
     @property

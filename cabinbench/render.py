@@ -34,7 +34,8 @@ def draw_frame(world: World, trajectories: np.ndarray | None = None, scale: int 
     image[world.floor_mask] = FLOOR
     image[world.pass_count > 0] = COVERED
     picture = Image.fromarray(np.flipud(image)).resize(
-        (image.shape[1] * scale, image.shape[0] * scale), Image.Resampling.NEAREST)
+        (image.shape[1] * scale, image.shape[0] * scale), Image.Resampling.NEAREST
+    )
     draw = ImageDraw.Draw(picture)
     height = image.shape[0]
     x0, y0 = layout.origin
@@ -51,20 +52,26 @@ def draw_frame(world: World, trajectories: np.ndarray | None = None, scale: int 
         if visible:
             u, v = to_image(x, y)
             draw.rectangle([u - marker, v - marker, u + marker, v + marker], fill=GOAL, outline=(0, 0, 0))
-    for (x, y), visible in zip(world.circles[world.n_goals: world.n_goals + world.n_exits, :2], exits):
+    for (x, y), visible in zip(world.circles[world.n_goals : world.n_goals + world.n_exits, :2], exits):
         if visible:
             u, v = to_image(x, y)
             draw.rectangle([u - marker, v - marker, u + marker, v + marker], fill=EXIT, outline=(0, 0, 0))
     if trajectories is not None and len(trajectories) > 1:
         for robot in range(trajectories.shape[1]):
             colour = ROBOT_COLOURS[robot % len(ROBOT_COLOURS)]
-            draw.line([to_image(x, y) for x, y in trajectories[:, robot]], fill=colour, width=max(1, scale // 2))
+            draw.line(
+                [to_image(x, y) for x, y in trajectories[:, robot]], fill=colour, width=max(1, scale // 2)
+            )
     radius = layout.robot.radius / RESOLUTION * scale
     for robot, (x, y, heading) in enumerate(world.poses):
         u, v = to_image(x, y)
         colour = ROBOT_COLOURS[robot % len(ROBOT_COLOURS)]
         draw.ellipse([u - radius, v - radius, u + radius, v + radius], fill=colour, outline=(0, 0, 0))
-        draw.line([(u, v), (u + radius * np.cos(heading), v - radius * np.sin(heading))], fill=(255, 255, 255), width=max(1, scale // 2))
+        draw.line(
+            [(u, v), (u + radius * np.cos(heading), v - radius * np.sin(heading))],
+            fill=(255, 255, 255),
+            width=max(1, scale // 2),
+        )
     return np.asarray(picture)
 
 
@@ -80,7 +87,9 @@ class EnvRenderer:
         if self.render_mode is None:
             import gymnasium
 
-            gymnasium.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            gymnasium.logger.warn(
+                "render() called without a render_mode; pass render_mode='rgb_array' or 'human'"
+            )
             return None
         frame = draw_frame(world, trajectories)
         if self.render_mode == "rgb_array":

@@ -19,17 +19,31 @@ from .world import StepEvents
 REWARD_PRESETS = ("paper", "coverage")
 
 
-def reward(preset: str, events: StepEvents, robot: int, coverable_pixels: int, team_weight: float = 0.5) -> float:
+def reward(
+    preset: str, events: StepEvents, robot: int, coverable_pixels: int, team_weight: float = 0.5
+) -> float:
     mine = events.robots[robot]
     hits = mine.collisions + mine.robot_collisions
     if preset == "paper":
         if events.cells_cleared:
             return 3.0
-        return 0.5 * mine.goals_reached - 0.3 * hits - 10.0 * mine.bound_violations - 0.01 + 2.0 * mine.exits_reached
+        return (
+            0.5 * mine.goals_reached
+            - 0.3 * hits
+            - 10.0 * mine.bound_violations
+            - 0.01
+            + 2.0 * mine.exits_reached
+        )
     if preset == "coverage":
         new_fraction = mine.new_coverable_pixels / coverable_pixels
         if len(events.robots) > 1:
             new_fraction += team_weight * events.team_new_coverable_pixels / coverable_pixels
-        return (10.0 * new_fraction - 0.1 * hits - 1.0 * mine.bound_violations - 0.005
-                + 1.0 * events.cells_cleared + 0.5 * mine.exits_reached)
+        return (
+            10.0 * new_fraction
+            - 0.1 * hits
+            - 1.0 * mine.bound_violations
+            - 0.005
+            + 1.0 * events.cells_cleared
+            + 0.5 * mine.exits_reached
+        )
     raise ValueError(f"unknown reward preset {preset!r}; choose one of {REWARD_PRESETS}")

@@ -28,8 +28,7 @@ from pathlib import Path
 from PIL import Image
 from tqdm import tqdm
 
-from baselines.base import BASELINES, load_baseline
-
+from .agents import BaselineError, load_baseline
 from .episodes import EXIT_INTERRUPTED, EpisodeJob, EpisodeResult, run_jobs
 from .layout import LayoutError, available_layouts, load_layout
 from .metrics import METRICS, TEAM_METRICS
@@ -43,22 +42,51 @@ EXIT_USAGE = 2
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(prog="python -m cabinbench.run", description="Evaluate a baseline on a layout; record every episode and summarise the metrics.")
-    parser.add_argument("--baseline", required=True, help=f"one of {', '.join(BASELINES)}, or package.module:Class")
-    parser.add_argument("--layout", required=True, help="a layout name (python -m cabinbench.layouts) or a YAML file")
+    parser = argparse.ArgumentParser(
+        prog="python -m cabinbench.run",
+        description="Evaluate a baseline on a layout; record every episode and summarise the metrics.",
+    )
+    parser.add_argument(
+        "--baseline",
+        required=True,
+        help="a registered baseline (entry-point group cabinbench.baselines), or package.module:Class",
+    )
+    parser.add_argument(
+        "--layout", required=True, help="a layout name (python -m cabinbench.layouts) or a YAML file"
+    )
     parser.add_argument("--episodes", type=int, default=5, help="episodes to play (default 5)")
     parser.add_argument("--seed", type=int, default=0, help="base seed; episode i uses seed + i (default 0)")
     parser.add_argument("--agents", type=int, default=1, help="robots in the team, K (default 1)")
-    parser.add_argument("--protocol", choices=PROTOCOLS, default="sequential", help="cell by cell, or the whole layout open")
-    parser.add_argument("--reward", choices=("paper", "coverage"), default="paper", help="reward preset (learned baselines see it)")
-    parser.add_argument("--max-steps", type=int, default=None, help="step limit per episode (default: the layout's)")
-    parser.add_argument("--config", type=json.loads, default={}, metavar="JSON", help="baseline settings as a JSON object")
+    parser.add_argument(
+        "--protocol", choices=PROTOCOLS, default="sequential", help="cell by cell, or the whole layout open"
+    )
+    parser.add_argument(
+        "--reward",
+        choices=("paper", "coverage"),
+        default="paper",
+        help="reward preset (learned baselines see it)",
+    )
+    parser.add_argument(
+        "--max-steps", type=int, default=None, help="step limit per episode (default: the layout's)"
+    )
+    parser.add_argument(
+        "--config", type=json.loads, default={}, metavar="JSON", help="baseline settings as a JSON object"
+    )
     parser.add_argument("--out", default="results/runs", help="folder for the records (default results/runs)")
-    parser.add_argument("--render", metavar="FILE", help="draw the first episode to FILE.png or animate it to FILE.gif")
+    parser.add_argument(
+        "--render", metavar="FILE", help="draw the first episode to FILE.png or animate it to FILE.gif"
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
-    parser.add_argument("--workers", type=int, default=1, help="episodes played in parallel by a local process pool")
+    parser.add_argument(
+        "--workers", type=int, default=1, help="episodes played in parallel by a local process pool"
+    )
     args = parser.parse_args(argv)
-    if args.episodes < 1 or args.agents < 1 or args.workers < 1 or (args.max_steps is not None and args.max_steps < 1):
+    if (
+        args.episodes < 1
+        or args.agents < 1
+        or args.workers < 1
+        or (args.max_steps is not None and args.max_steps < 1)
+    ):
         parser.error("--episodes, --agents, --workers and --max-steps must be positive")
     if not isinstance(args.config, dict):
         parser.error("--config must be a JSON object, e.g. '{\"min_turn\": 0.5}'")
@@ -92,7 +120,9 @@ def summary_metrics(record: dict) -> list[str]:
 
 
 def summarize_run(records: list[dict]) -> dict[str, Summary]:
-    return {name: summarize(name, [record[name] for record in records]) for name in summary_metrics(records[0])}
+    return {
+        name: summarize(name, [record[name] for record in records]) for name in summary_metrics(records[0])
+    }
 
 
 def format_table(summaries: dict[str, Summary], title: str) -> str:
@@ -102,7 +132,9 @@ def format_table(summaries: dict[str, Summary], title: str) -> str:
     lines = [title, f"{'metric':<18} {'mean':>10}   {'95% CI':<24} note", "-" * 64]
     for name, summary in summaries.items():
         interval = f"[{number(summary.low)}, {number(summary.high)}]"
-        note = f"reached in {summary.n} episodes ({summary.reached:.0%})" if summary.reached is not None else ""
+        note = (
+            f"reached in {summary.n} episodes ({summary.reached:.0%})" if summary.reached is not None else ""
+        )
         lines.append(f"{name:<18} {number(summary.mean):>10}   {interval:<24} {note}".rstrip())
     return "\n".join(lines)
 
@@ -125,33 +157,57 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {error}\nvalid layouts: {', '.join(available_layouts())}", file=sys.stderr)
         return EXIT_USAGE
     try:
-        start_poses(layout, args.agents)  # a team too large for the start cell: refuse before writing anything
+        start_poses(
+            layout, args.agents
+        )  # a team too large for the start cell: refuse before writing anything
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
     try:
         baseline = load_baseline(args.baseline, **args.config)
-    except (ValueError, TypeError) as error:  # unknown name, or settings the class does not take
-        print(f"error: {error}\nvalid baselines: {', '.join(BASELINES)}", file=sys.stderr)
+    except (BaselineError, ValueError) as error:  # unknown name, settings or a file the class cannot use
+        print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
 
     max_steps = args.max_steps or layout.max_steps
     env_config = {**baseline.env_options, "reward": args.reward, "max_steps": max_steps}
-    header = run_header(layout, args.baseline, getattr(baseline, "config", args.config), args.protocol,
-                        args.agents, args.seed, env_config)
+    header = run_header(
+        layout,
+        args.baseline,
+        getattr(baseline, "config", args.config),
+        args.protocol,
+        args.agents,
+        args.seed,
+        env_config,
+    )
     writer = RunWriter(run_path(args.out, header), header, layout)
     frame_every = None  # frames of the first episode: a PNG needs only the last, a GIF about GIF_FRAMES
     if args.render:
-        frame_every = max(1, max_steps // GIF_FRAMES) if Path(args.render).suffix.lower() == ".gif" else max_steps
-    jobs = [EpisodeJob(args.baseline, args.layout, args.seed, episode, args.protocol, args.agents, env_config,
-                       args.config, frame_every if episode == 0 else None)
-            for episode in range(args.episodes)]
+        frame_every = (
+            max(1, max_steps // GIF_FRAMES) if Path(args.render).suffix.lower() == ".gif" else max_steps
+        )
+    jobs = [
+        EpisodeJob(
+            args.baseline,
+            args.layout,
+            args.seed,
+            episode,
+            args.protocol,
+            args.agents,
+            env_config,
+            args.config,
+            frame_every if episode == 0 else None,
+        )
+        for episode in range(args.episodes)
+    ]
 
     finished, interrupted = collect(run_jobs(jobs, args.workers), writer, len(jobs))
     if interrupted:
         if not finished:
             writer.path.unlink(missing_ok=True)  # the name claimed for the run, still empty
-        where = f"{writer.path} (trajectories: {writer.trajectory_path})" if finished else "nothing was written"
+        where = (
+            f"{writer.path} (trajectories: {writer.trajectory_path})" if finished else "nothing was written"
+        )
         print(f"interrupted: {len(finished)} finished episode(s) kept; {where}", file=sys.stderr)
         return EXIT_INTERRUPTED
     if args.render:
@@ -161,14 +217,26 @@ def main(argv: list[str] | None = None) -> int:
     records = [result.record for result in sorted(finished, key=lambda result: result.job.episode)]
     summaries = summarize_run(records)
     if args.json:
-        print(json.dumps({
-            "baseline": args.baseline, "layout": layout.name, "protocol": args.protocol, "n_agents": args.agents,
-            "episodes": len(records), "records": str(writer.path), "trajectories": str(writer.trajectory_path),
-            "render": args.render, "metrics": {name: summary.as_dict() for name, summary in summaries.items()},
-        }))
+        print(
+            json.dumps(
+                {
+                    "baseline": args.baseline,
+                    "layout": layout.name,
+                    "protocol": args.protocol,
+                    "n_agents": args.agents,
+                    "episodes": len(records),
+                    "records": str(writer.path),
+                    "trajectories": str(writer.trajectory_path),
+                    "render": args.render,
+                    "metrics": {name: summary.as_dict() for name, summary in summaries.items()},
+                }
+            )
+        )
     else:
-        title = (f"{args.baseline} on {layout.name} ({args.protocol}, K={args.agents}): {len(records)} episodes, "
-                 f"seeds {args.seed}..{args.seed + len(records) - 1}")
+        title = (
+            f"{args.baseline} on {layout.name} ({args.protocol}, K={args.agents}): {len(records)} episodes, "
+            f"seeds {args.seed}..{args.seed + len(records) - 1}"
+        )
         print(format_table(summaries, title))
         print(f"\nrecords: {writer.path}\ntrajectories: {writer.trajectory_path}")
         if args.render:

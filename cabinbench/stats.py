@@ -44,7 +44,10 @@ class Summary:
         values = {"mean": self.mean, "ci_low": self.low, "ci_high": self.high, "n": self.n}
         if self.reached is not None:
             values["reached"] = self.reached
-        return {key: None if isinstance(value, float) and math.isnan(value) else value for key, value in values.items()}
+        return {
+            key: None if isinstance(value, float) and math.isnan(value) else value
+            for key, value in values.items()
+        }
 
 
 def _numbers(values) -> np.ndarray:
@@ -63,8 +66,13 @@ def mean_ci(values) -> Summary:
     if np.ptp(sample) == 0:  # every resample is the same: skip scipy's degenerate-data warning
         return Summary(mean, mean, mean, n)
     result = stats.bootstrap(
-        (sample,), np.mean, n_resamples=RESAMPLES, confidence_level=CONFIDENCE, method="percentile",
-        vectorized=True, rng=np.random.default_rng(BOOTSTRAP_SEED),
+        (sample,),
+        np.mean,
+        n_resamples=RESAMPLES,
+        confidence_level=CONFIDENCE,
+        method="percentile",
+        vectorized=True,
+        rng=np.random.default_rng(BOOTSTRAP_SEED),
     )
     interval = result.confidence_interval
     return Summary(mean, float(interval.low), float(interval.high), n)

@@ -1,172 +1,68 @@
-"""Train a learned baseline: ``python -m cabinbench.train --baseline ppo_gail --layout a320_cell``.
+"""Train a learned baseline: ``python -m cabinbench.train --baseline NAME [options of its trainer]``.
 
-    python -m cabinbench.train --baseline ppo_gail|ppo|ppo_icm|ppo_gail_only
-        [--layout NAME ...] [--iterations N] [--num-envs N] [--steps-per-env N] [--seed S]
-        [--reward paper|coverage] [--[no-]terminate-on-bound] [--max-steps N] [--algorithm JSON]
-        [--min-action-std X] [--coverage-patch N] [--[no-]random-start]
-        [--threads N] [--save-interval N] [--validation-episodes N] [--export last|best]
-        [--demonstrations FILE.npz ...] [--run-dir DIR] [--resume] [--ship] [--keep] [--no-progress]
-
-Options not given take the defaults of ``baselines.ppo_gail.training.TrainConfig`` (the shipped policies'
-configuration; with ``--layout`` repeated, one policy trains on all of them, by default ``a320_cell`` and
-``a320_tracking_cell``). The run lives in ``--run-dir`` (default ``runs/train/<baseline>__seed<S>``): config,
-demonstrations, checkpoints, ``metrics.csv``, ``curves.png`` and the exported ``policy.pt``. ``--resume`` continues
-an interrupted run from its latest checkpoint, with the saved config (``--iterations`` may raise the total).
-At the end every checkpoint's policy plays ``--validation-episodes`` episodes (default 20) on each training layout
-(``validation.csv`` in the run directory); ``--export best`` exports the checkpoint that did best there instead of
-the last (see ``TrainConfig.export`` for why the last is the default).
-``--ship`` copies the exported policy to ``baselines/ppo_gail/checkpoints/<baseline>.pt``, where
-``python -m cabinbench.run --baseline <baseline>`` finds it, and the run's ``config.json``, ``metrics.csv`` and
-``validation.csv`` to ``results/training/<baseline>/``, from which ``python -m cabinbench.leaderboard`` draws the
-committed training curves. ``--keep`` copies the policy, ``config.json``, ``metrics.csv`` and ``validation.csv`` to
-``results/training/<baseline>/seed<S>/``: a further training run of the same command, which
-``results/make_results.sh`` scores into ``results/ablation.md``.
-
-Exit status: 0 done; 2 bad arguments (an unknown baseline: the valid ones are printed) or a run directory that
-cannot be used as asked; 130 interrupted by Ctrl-C (finished checkpoints are kept; resume with ``--resume``).
+The baseline's class names its trainer (``Baseline.trainer``); this command loads it and hands it
+every argument, so ``python -m cabinbench.train --baseline ppo_gail --help`` shows that trainer's
+options. Exit status: 0 done; 2 a baseline that cannot be loaded or does not learn (the ones that
+do are printed), or a trainer's own usage error; 130 interrupted (finished checkpoints are kept).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import shutil
+import importlib
 import sys
-from pathlib import Path
 
-EXIT_USAGE, EXIT_INTERRUPTED = 2, 130
-TRAINABLE = ("ppo_gail", "ppo", "ppo_icm", "ppo_gail_only")  # = baselines.ppo_gail.algorithm.ABLATIONS
-TRAINING_RECORDS = Path("results/training")  # what --ship and --keep keep of a run
+from .agents import BaselineError, baseline_class, registered_baselines
 
-
-def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(prog="python -m cabinbench.train",
-                                     description="Train PPO + curiosity + GAIL (or an ablation) with rsl-rl.")
-    parser.add_argument("--baseline", required=True, help=f"one of {', '.join(TRAINABLE)}")
-    parser.add_argument("--layout", action="append", dest="layouts", metavar="NAME",
-                        help="training layout (repeat for several; default a320_cell and a320_tracking_cell)")
-    parser.add_argument("--iterations", type=int, help="total training iterations")
-    parser.add_argument("--num-envs", type=int, help="parallel envs")
-    parser.add_argument("--steps-per-env", type=int, dest="num_steps_per_env", help="rollout steps per env and iteration")
-    parser.add_argument("--seed", type=int, help="seed (default 0)")
-    parser.add_argument("--reward", choices=("paper", "coverage"), help="reward preset of the training envs")
-    parser.add_argument("--max-steps", type=int, help="episode step limit (default: each layout's)")
-    parser.add_argument("--threads", type=int, help="torch threads")
-    parser.add_argument("--save-interval", type=int, help="checkpoint every N iterations")
-    parser.add_argument("--validation-episodes", type=int, metavar="N",
-                        help="episodes per training layout on which every checkpoint is validated (0: none)")
-    parser.add_argument("--export", choices=("last", "best"), help="export the last checkpoint or the best validated")
-    parser.add_argument("--algorithm", type=json.loads, metavar="JSON",
-                        help='further algorithm settings, e.g. \'{"gail_strength": 0.1, "entropy_coef": 0.02}\'')
-    parser.add_argument("--min-action-std", type=float, help="lower clamp of the policy's action std")
-    parser.add_argument("--coverage-patch", type=int, metavar="N",
-                        help="observe an N x N coverage patch (0: lidar and velocity only)")
-    parser.add_argument("--random-start", action=argparse.BooleanOptionalAction, default=None,
-                        help="start each training episode at a random pose of the start cell")
-    parser.add_argument("--terminate-on-bound", action=argparse.BooleanOptionalAction, default=None,
-                        help="end episodes on a bound contact")
-    parser.add_argument("--demonstrations", nargs="+", metavar="FILE", help="expert .npz files instead of recording")
-    parser.add_argument("--run-dir", help="run directory (default runs/train/<baseline>__seed<S>)")
-    parser.add_argument("--resume", action="store_true", help="continue the run in --run-dir from its latest checkpoint")
-    parser.add_argument("--ship", action="store_true", help="copy the exported policy to baselines/ppo_gail/checkpoints/")
-    parser.add_argument("--keep", action="store_true",
-                        help="copy the policy and training records to results/training/<baseline>/seed<S>/ (results/ablation.md)")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
-    args = parser.parse_args(argv)
-    if args.algorithm is not None and not isinstance(args.algorithm, dict):
-        parser.error("--algorithm must be a JSON object")
-    return args
+EXIT_USAGE = 2
 
 
-def build_config(args: argparse.Namespace):
-    """The ``TrainConfig``: the saved one when resuming (else the defaults), overridden by the options given."""
-    from baselines.ppo_gail.training import CONFIG_FILE, TrainConfig, default_run_dir
-
-    given = {name: getattr(args, name) for name in ("layouts", "iterations", "num_envs", "num_steps_per_env", "seed",
-                                                     "reward", "terminate_on_bound", "max_steps", "algorithm", "min_action_std",
-                                                     "coverage_patch", "random_start",
-                                                     "threads", "save_interval", "validation_episodes", "export",
-                                                     "demonstrations")
-             if getattr(args, name) is not None}
-    given["ablation"] = args.baseline
-    run_dir = Path(args.run_dir) if args.run_dir else default_run_dir(TrainConfig(**given))
-    saved_path = run_dir / CONFIG_FILE
-    if args.resume and saved_path.exists():
-        config = TrainConfig.from_dict({**json.loads(saved_path.read_text()), **given})
-    else:
-        config = TrainConfig(**given)
-    return config, run_dir
+def trainable_baselines() -> list[str]:
+    """Registered baselines whose class names a trainer (those that cannot be imported here are left out)."""
+    names = []
+    for name in registered_baselines():
+        try:
+            if baseline_class(name).trainer:
+                names.append(name)
+        except BaselineError:
+            continue
+    return names
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = parse_args(argv)
-    if args.baseline not in TRAINABLE:
-        print(f"error: cannot train baseline {args.baseline!r}; trainable baselines: {', '.join(TRAINABLE)}",
-              file=sys.stderr)
-        return EXIT_USAGE
-    os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
-    from baselines.ppo_gail.policy import CHECKPOINT_DIR
-    from baselines.ppo_gail.training import train
-    from cabinbench.layout import LayoutError, available_layouts, load_layout
-
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = argparse.ArgumentParser(
+        prog="python -m cabinbench.train",
+        add_help=False,
+        description="Train a learned baseline with the trainer it declares.",
+    )
+    parser.add_argument(
+        "--baseline",
+        required="-h" not in argv and "--help" not in argv,
+        help="a learned baseline, e.g. ppo_gail",
+    )
+    known, _ = parser.parse_known_args(argv)
+    if known.baseline is None:
+        parser.print_help()
+        print(
+            f"\ntrainable baselines: {', '.join(trainable_baselines())}; "
+            "--baseline NAME --help shows a trainer's options"
+        )
+        return 0
     try:
-        config, run_dir = build_config(args)
-        for layout in config.layouts:
-            load_layout(layout)
-    except LayoutError as error:
-        print(f"error: {error}\nvalid layouts: {', '.join(available_layouts())}", file=sys.stderr)
-        return EXIT_USAGE
-    except (ValueError, TypeError) as error:
+        trainer = baseline_class(known.baseline).trainer
+    except BaselineError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
-
-    print(f"training {config.ablation} on {', '.join(config.layouts)}: {config.iterations} iterations x "
-          f"{config.num_envs} envs x {config.num_steps_per_env} steps; run dir {run_dir}", file=sys.stderr)
-    try:
-        result = train(config, run_dir, resume=args.resume, progress=not args.no_progress)
-    except (FileExistsError, ValueError) as error:
-        print(f"error: {error}", file=sys.stderr)
+    if not trainer:
+        print(
+            f"error: baseline {known.baseline!r} does not learn; trainable baselines: "
+            f"{', '.join(trainable_baselines())}",
+            file=sys.stderr,
+        )
         return EXIT_USAGE
-    except KeyboardInterrupt:  # before the first iteration (recording demonstrations, building the runner)
-        print("interrupted before training started", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    if result.interrupted:
-        return EXIT_INTERRUPTED
-
-    summary = result.summary
-    print(f"done: {result.iterations} iterations, {summary['timesteps']} steps, {result.train_time / 60:.1f} min of "
-          f"training; last iterations: coverage {summary['final_coverage']}, success {summary['final_success']}")
-    print(f"policy: {result.policy_path} (the checkpoint of iteration {summary['exported_iteration']}, "
-          f"--export {config.export})\ncurves: {result.run_dir / 'curves.png'}\nmetrics: {result.run_dir / 'metrics.csv'}")
-    if config.validation_episodes:
-        print(f"validation of every checkpoint: {result.run_dir / 'validation.csv'}")
-    if args.ship:
-        shipped = CHECKPOINT_DIR / f"{config.ablation}.pt"
-        copy_file(result.policy_path, shipped)
-        records = TRAINING_RECORDS / config.ablation
-        for name in training_records(config):
-            copy_file(result.run_dir / name, records / name)
-        print(f"shipped: {shipped}; training records: {records}")
-    if args.keep:
-        kept = TRAINING_RECORDS / config.ablation / f"seed{config.seed}"
-        for name in ("policy.pt", *training_records(config)):
-            copy_file(result.run_dir / name, kept / name)
-        print(f"kept: {kept} (score it with the loop in results/make_results.sh)")
-    return 0
-
-
-def training_records(config) -> tuple[str, ...]:
-    """The files of a run that ``--ship`` and ``--keep`` keep beside its policy."""
-    return ("config.json", "metrics.csv", *(("validation.csv",) if config.validation_episodes else ()))
-
-
-def copy_file(source: Path, target: Path) -> None:
-    """Copy atomically: a reader never sees a half-written file."""
-    target.parent.mkdir(parents=True, exist_ok=True)
-    temporary = target.with_name(target.name + ".tmp")
-    shutil.copyfile(source, temporary)
-    os.replace(temporary, target)
+    module_name, function_name = trainer.split(":", 1)
+    return getattr(importlib.import_module(module_name), function_name)(argv)
 
 
 if __name__ == "__main__":

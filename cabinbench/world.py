@@ -60,14 +60,28 @@ class StepEvents:
 class World:
     """K disc robots on one layout. Construct once; call :meth:`reset` before stepping."""
 
-    def __init__(self, layout: Layout, n_robots: int = 1, protocol: str = "sequential",
-                 lidar: LidarConfig = LidarConfig(), patch: CoveragePatch = CoveragePatch()):
+    def __init__(
+        self,
+        layout: Layout,
+        n_robots: int = 1,
+        protocol: str = "sequential",
+        lidar: LidarConfig = LidarConfig(),
+        patch: CoveragePatch = CoveragePatch(),
+    ):
         if protocol not in PROTOCOLS:
             raise ValueError(f"protocol must be one of {PROTOCOLS}, got {protocol!r}")
-        self.layout, self.n_robots, self.protocol, self.lidar, self.patch = layout, n_robots, protocol, lidar, patch
+        self.layout, self.n_robots, self.protocol, self.lidar, self.patch = (
+            layout,
+            n_robots,
+            protocol,
+            lidar,
+            patch,
+        )
         self.ray_angles = lidar.ray_angles()
         self.observation_size = lidar.n_rays * 6 + patch.size + 2
-        self.patch_columns = slice(lidar.n_rays * 6, lidar.n_rays * 6 + patch.size)  # where observe writes the patch
+        self.patch_columns = slice(
+            lidar.n_rays * 6, lidar.n_rays * 6 + patch.size
+        )  # where observe writes the patch
         self.start_poses = start_poses(layout, n_robots)
         robot = layout.robot
         self._radius = robot.radius
@@ -85,19 +99,31 @@ class World:
         self.segment_tags = np.concatenate(tags).astype(np.int8)
         # Discs: goals, then exits, then robots.
         goals = layout.goals
-        self.goal_cell = np.concatenate([np.full(len(c.goals), i) for i, c in enumerate(layout.cells)]).astype(int)
+        self.goal_cell = np.concatenate(
+            [np.full(len(c.goals), i) for i, c in enumerate(layout.cells)]
+        ).astype(int)
         exits = np.concatenate([p.exits for p in passages]) if passages else np.zeros((0, 2))
-        self.exit_passage = np.concatenate([np.full(len(p.exits), k) for k, p in enumerate(passages)]).astype(int) if passages else np.zeros(0, int)
+        self.exit_passage = (
+            np.concatenate([np.full(len(p.exits), k) for k, p in enumerate(passages)]).astype(int)
+            if passages
+            else np.zeros(0, int)
+        )
         self.n_goals, self.n_exits = len(goals), len(exits)
-        marker_discs = [np.column_stack([points, np.full(len(points), MARKER_RADIUS)]) for points in (goals, exits)]
+        marker_discs = [
+            np.column_stack([points, np.full(len(points), MARKER_RADIUS)]) for points in (goals, exits)
+        ]
         self.circles = np.concatenate([*marker_discs, np.zeros((n_robots, 3))]).astype(np.float64)
-        self.circles[self.n_goals + self.n_exits:, 2] = robot.radius
-        self.circle_tags = np.concatenate([np.full(len(goals), GOAL), np.full(len(exits), EXIT), np.full(n_robots, ROBOT)]).astype(np.int8)
+        self.circles[self.n_goals + self.n_exits :, 2] = robot.radius
+        self.circle_tags = np.concatenate(
+            [np.full(len(goals), GOAL), np.full(len(exits), EXIT), np.full(n_robots, ROBOT)]
+        ).astype(np.int8)
         # Rasters shared by all robots.
         self.floor_mask = layout.free_raster
         self.coverable_mask = layout.coverable_raster
         self.cell_of = layout.cell_raster
-        self.coverable_by_cell = np.bincount(self.cell_of[self.coverable_mask & (self.cell_of >= 0)], minlength=len(layout.cells))
+        self.coverable_by_cell = np.bincount(
+            self.cell_of[self.coverable_mask & (self.cell_of >= 0)], minlength=len(layout.cells)
+        )
         self.coverable_pixels = int(self.coverable_mask.sum())
         self.cell_has_goals = np.bincount(self.goal_cell, minlength=len(layout.cells)) > 0
         self._marker_hits = np.full(max(self.n_goals, self.n_exits, 1), -1, dtype=np.int64)
@@ -180,7 +206,9 @@ class World:
         self.velocities = np.zeros((self.n_robots, 2))  # (forward m/s, turn rad/s) commanded and achieved
         self._pending = [RobotEvents() for _ in range(self.n_robots)]
         for x, y, _ in self._poses.tolist():
-            self._stamp(x, y, math.nan, math.nan)  # the start footprint is covered, but earns no step's reward
+            self._stamp(
+                x, y, math.nan, math.nan
+            )  # the start footprint is covered, but earns no step's reward
 
     def _set_bound(self, passage: int, solid: bool) -> None:
         """Close (solid) or open a passage's bounds, in physics and for the lidar alike."""
@@ -260,15 +288,29 @@ class World:
         """Cover a robot's footprint at (x, y), coming from the previous pose (NaN: none)."""
         origin_x, origin_y = self.layout.origin
         new_floor, new_coverable = stamp_footprint(
-            self.pass_count, self.floor_mask, self.coverable_mask, self.cell_of, self.covered_by_cell,
-            x, y, previous_x, previous_y, self._radius, origin_x, origin_y, RESOLUTION)
+            self.pass_count,
+            self.floor_mask,
+            self.coverable_mask,
+            self.cell_of,
+            self.covered_by_cell,
+            x,
+            y,
+            previous_x,
+            previous_y,
+            self._radius,
+            origin_x,
+            origin_y,
+            RESOLUTION,
+        )
         self.covered_floor_pixels += new_floor
         self.covered_coverable_pixels += new_coverable
         return new_coverable
 
     def _update_protocol(self, events: StepEvents, poses: np.ndarray) -> None:
         reach = self._radius  # a marker is reached when it is under the robot's footprint
-        goals_hit = markers_reached(self.circles, self.circle_on, 0, self.n_goals, poses, reach, self._marker_hits)
+        goals_hit = markers_reached(
+            self.circles, self.circle_on, 0, self.n_goals, poses, reach, self._marker_hits
+        )
         for goal in np.flatnonzero(self._marker_hits[: self.n_goals] >= 0) if goals_hit else ():
             self.goal_reached[goal] = True
             events.robots[self._marker_hits[goal]].goals_reached += 1
@@ -282,7 +324,9 @@ class World:
         exit_reached = False
         if self.protocol == "sequential":
             exit_reached = self._advance_through_exits(events, poses, reach)
-            self.success = all(self.cell_cleared.tolist())  # numpy's .all() costs a microsecond, even on a few cells
+            self.success = all(
+                self.cell_cleared.tolist()
+            )  # numpy's .all() costs a microsecond, even on a few cells
         else:
             self.success = self.coverage >= self.layout.success_coverage
         events.success = self.success
@@ -293,7 +337,11 @@ class World:
         """Uncleared cells that may have been completed this step: those with goals only when a
         goal was reached; in sequential only the current cell."""
         cells = [self.current_cell] if self.protocol == "sequential" else range(len(self.cell_cleared))
-        return [cell for cell in cells if not self.cell_cleared[cell] and (goals_changed or not self.cell_has_goals[cell])]
+        return [
+            cell
+            for cell in cells
+            if not self.cell_cleared[cell] and (goals_changed or not self.cell_has_goals[cell])
+        ]
 
     def _cell_done(self, cell: int) -> bool:
         if self.cell_has_goals[cell]:
@@ -307,7 +355,9 @@ class World:
         passage = self.current_cell
         if passage < len(self.layout.passages) and self.passage_open[passage]:
             # only the open passage's exits are shown, so any hit is one of them
-            if markers_reached(self.circles, self.circle_on, self.n_goals, self.n_exits, poses, reach, self._marker_hits):
+            if markers_reached(
+                self.circles, self.circle_on, self.n_goals, self.n_exits, poses, reach, self._marker_hits
+            ):
                 robot = int(self._marker_hits[: self.n_exits][self._marker_hits[: self.n_exits] >= 0][0])
                 events.robots[robot].exits_reached += 1
                 self.current_cell += 1
@@ -332,7 +382,7 @@ class World:
     def markers_visible(self) -> tuple[np.ndarray, np.ndarray]:
         """(goal visible, exit visible) flags for the lidar."""
         goals = self.circle_on[: self.n_goals]
-        return goals, self.circle_on[self.n_goals: self.n_goals + self.n_exits]
+        return goals, self.circle_on[self.n_goals : self.n_goals + self.n_exits]
 
     def _refresh_markers(self) -> None:
         """Recompute which goals and exits are shown; called whenever the protocol state changes."""
@@ -363,21 +413,64 @@ class World:
         lidar, robot = self.lidar, self.layout.robot
         # drawn before the cast, which draws nothing: the same numbers as drawing after it
         noise = self.rng.normal(0.0, lidar.noise, lidar.n_rays) if lidar.noise > 0 else self._no_noise
-        write_observation(out, index, self._poses, self.velocities, robot.max_speed, robot.max_turn_rate,
-                          self.ray_angles, lidar.max_range, self.segments, self.segment_tags, self.segment_on,
-                          self.circles, self.circle_tags, self.circle_on, noise)
+        write_observation(
+            out,
+            index,
+            self._poses,
+            self.velocities,
+            robot.max_speed,
+            robot.max_turn_rate,
+            self.ray_angles,
+            lidar.max_range,
+            self.segments,
+            self.segment_tags,
+            self.segment_on,
+            self.circles,
+            self.circle_tags,
+            self.circle_on,
+            noise,
+        )
         if self.patch.cells:
             x, y, heading = self._poses[index]
             origin_x, origin_y = self.layout.origin
-            write_coverage_patch(out, self.patch_columns.start, x, y, heading, self.patch.cells, self.patch.cell_size,
-                                 self.pass_count, self.coverable_mask, self.cell_of, self.cell_visible,
-                                 self.protocol == "open", origin_x, origin_y, RESOLUTION)
+            write_coverage_patch(
+                out,
+                self.patch_columns.start,
+                x,
+                y,
+                heading,
+                self.patch.cells,
+                self.patch.cell_size,
+                self.pass_count,
+                self.coverable_mask,
+                self.cell_of,
+                self.cell_visible,
+                self.protocol == "open",
+                origin_x,
+                origin_y,
+                RESOLUTION,
+            )
         return out
 
 
 @njit(cache=True)
-def write_observation(out, index, poses, velocities, max_speed, max_turn_rate, ray_angles, max_range,
-                      segments, segment_tags, segment_on, circles, circle_tags, circle_on, noise):
+def write_observation(
+    out,
+    index,
+    poses,
+    velocities,
+    max_speed,
+    max_turn_rate,
+    ray_angles,
+    max_range,
+    segments,
+    segment_tags,
+    segment_on,
+    circles,
+    circle_tags,
+    circle_on,
+    noise,
+):
     """:meth:`World.observe` in one compiled call: the scan of robot ``index`` (its own disc
     contains the ray origin, so the cast skips it), its range ``noise`` (empty: none), then the
     velocities."""
@@ -386,8 +479,21 @@ def write_observation(out, index, poses, velocities, max_speed, max_turn_rate, r
         circles[first_robot + robot, 0], circles[first_robot + robot, 1] = poses[robot, 0], poses[robot, 1]
     n_rays = ray_angles.shape[0]
     distances, tags = np.empty(n_rays), np.empty(n_rays, dtype=np.int8)
-    cast_rays(poses[index, 0], poses[index, 1], poses[index, 2], ray_angles, max_range, segments, segment_tags,
-              segment_on, circles, circle_tags, circle_on, distances, tags)
+    cast_rays(
+        poses[index, 0],
+        poses[index, 1],
+        poses[index, 2],
+        ray_angles,
+        max_range,
+        segments,
+        segment_tags,
+        segment_on,
+        circles,
+        circle_tags,
+        circle_on,
+        distances,
+        tags,
+    )
     if noise.shape[0] > 0:
         for r in range(n_rays):
             distances[r] = min(max(distances[r] + noise[r], 0.0), max_range)

@@ -4,7 +4,7 @@ Usage: python results/compare_checkpoints.py [RUNS]   (from the repository root;
 runs/train_policies, the run directories of results/train_policies.sh; about 20 minutes on 2 cores)
 
 For every run directory with a validation.csv, the policy of its best checkpoint there
-(``baselines.ppo_gail.training.best_checkpoint``) and of its last one play 20 a320_cell episodes (seeds 0-19) and 4
+(``cabinbench.training_records.best_checkpoint``) and of its last one play 20 a320_cell episodes (seeds 0-19) and 4
 full_cabin episodes (seeds 0-3). Prints one row per run, then the mean per ablation: the table behind
 ``TrainConfig.export``'s choice.
 """
@@ -19,22 +19,30 @@ from pathlib import Path
 
 import numpy as np
 
-from baselines.ppo_gail.training import VALIDATION_DIR, TrainConfig, best_checkpoint, read_validation
+from cabinbench.baselines.ppo_gail.training import VALIDATION_DIR, TrainConfig, read_validation
 from cabinbench.episodes import EpisodeJob, run_jobs
+from cabinbench.training_records import best_checkpoint
 
 EPISODES = {"a320_cell": 20, "full_cabin": 4}
 COLUMNS = ("a320_cell coverage", "a320_cell success", "full_cabin cells", "full_cabin coverage")
 
 
 def scores(ablation: str, policy: Path) -> tuple[float, ...]:
-    jobs = [EpisodeJob(ablation, layout, seed=0, episode=episode, baseline_config={"checkpoint": str(policy)})
-            for layout, count in EPISODES.items() for episode in range(count)]
+    jobs = [
+        EpisodeJob(ablation, layout, seed=0, episode=episode, baseline_config={"checkpoint": str(policy)})
+        for layout, count in EPISODES.items()
+        for episode in range(count)
+    ]
     records = defaultdict(list)
     for result in run_jobs(jobs, workers=os.cpu_count() or 1):
         records[result.job.layout].append(result.record)
     a320, cabin = records["a320_cell"], records["full_cabin"]
-    return (np.mean([r["coverage"] for r in a320]), np.mean([r["success"] for r in a320]),
-            np.mean([r["cells_cleared"] for r in cabin]), np.mean([r["coverage"] for r in cabin]))
+    return (
+        np.mean([r["coverage"] for r in a320]),
+        np.mean([r["success"] for r in a320]),
+        np.mean([r["cells_cleared"] for r in cabin]),
+        np.mean([r["coverage"] for r in cabin]),
+    )
 
 
 def main(argv: list[str]) -> int:
@@ -45,18 +53,32 @@ def main(argv: list[str]) -> int:
     for run in sorted(path.parent for path in runs.glob("*/validation.csv")):
         config = TrainConfig.from_dict(json.loads((run / "config.json").read_text()))
         best, _ = best_checkpoint(read_validation(run, config))
-        measured = {choice: scores(config.ablation, run / VALIDATION_DIR / f"policy_{iteration:06d}.pt")
-                    for choice, iteration in (("best", best), ("last", config.iterations))}
+        measured = {
+            choice: scores(config.ablation, run / VALIDATION_DIR / f"policy_{iteration:06d}.pt")
+            for choice, iteration in (("best", best), ("last", config.iterations))
+        }
         for choice, values in measured.items():
             by_ablation[config.ablation][choice].append(values)
             by_ablation["all runs"][choice].append(values)
-        print(f"| {run.name} | {best} | " + " | ".join(
-            f"{b:.3g} / {l:.3g}" for b, l in zip(measured["best"], measured["last"])) + " |", flush=True)
-    print("\n| ablation (mean over runs) | " + " | ".join(f"{column} best / last" for column in COLUMNS) + " |")
+        print(
+            f"| {run.name} | {best} | "
+            + " | ".join(f"{b:.3g} / {l:.3g}" for b, l in zip(measured["best"], measured["last"]))
+            + " |",
+            flush=True,
+        )
+    print(
+        "\n| ablation (mean over runs) | " + " | ".join(f"{column} best / last" for column in COLUMNS) + " |"
+    )
     print("|---|" + "---:|" * len(COLUMNS))
-    for ablation, choices in sorted(by_ablation.items(), key=lambda item: item[0] == "all runs"):  # all runs last
+    for ablation, choices in sorted(
+        by_ablation.items(), key=lambda item: item[0] == "all runs"
+    ):  # all runs last
         best, last = np.mean(choices["best"], axis=0), np.mean(choices["last"], axis=0)
-        print(f"| {ablation} ({len(choices['best'])}) | " + " | ".join(f"{b:.3g} / {l:.3g}" for b, l in zip(best, last)) + " |")
+        print(
+            f"| {ablation} ({len(choices['best'])}) | "
+            + " | ".join(f"{b:.3g} / {l:.3g}" for b, l in zip(best, last))
+            + " |"
+        )
     return 0
 
 

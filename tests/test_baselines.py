@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from baselines.base import EpisodeContext, load_baseline
-from baselines.boustrophedon import plan_layout, record_demonstrations, team_share
-from baselines.ppo_gail.demonstrations import load_demonstrations
+from cabinbench.agents import EpisodeContext, load_baseline
+from cabinbench.baselines.boustrophedon import plan_layout, record_demonstrations, team_share
+from cabinbench.baselines.ppo_gail.demonstrations import load_demonstrations
 from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.layout import load_layout
 
@@ -64,7 +64,10 @@ def test_demonstrations_are_recorded_in_the_documented_schema(tmp_path):
     assert summary["success"] == 1.0
     data = np.load(path, allow_pickle=False)
     assert set(data.files) == {"observations", "actions", "episode", "observation_config"}
-    assert data["observations"].shape == (summary["steps"], 386) and data["actions"].shape == (summary["steps"], 2)
+    assert data["observations"].shape == (summary["steps"], 386) and data["actions"].shape == (
+        summary["steps"],
+        2,
+    )
     assert set(np.unique(data["episode"])) == {0, 1}
     observations, actions = load_demonstrations([str(path)], observation_dim=386, action_dim=2)
     assert observations.shape[0] == actions.shape[0] == summary["steps"]
@@ -73,8 +76,14 @@ def test_demonstrations_are_recorded_in_the_documented_schema(tmp_path):
 
 def test_noisy_demonstrations_vary_per_episode_and_record_the_planners_own_actions(tmp_path):
     def record(name: str, action_noise: float) -> dict:
-        record_demonstrations("a320_cell", episodes=2, path=str(tmp_path / name), seed=3, action_noise=action_noise,
-                              max_steps=300)
+        record_demonstrations(
+            "a320_cell",
+            episodes=2,
+            path=str(tmp_path / name),
+            seed=3,
+            action_noise=action_noise,
+            max_steps=300,
+        )
         return dict(np.load(tmp_path / name, allow_pickle=False))
 
     clean, noisy, again = record("clean.npz", 0.0), record("noisy.npz", 0.3), record("again.npz", 0.3)

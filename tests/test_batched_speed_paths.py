@@ -10,11 +10,22 @@ from cabinbench.envs.coverage_env import CoverageEnv
 
 
 def _batched_run(num_workers: int, actions: torch.Tensor) -> list:
-    with BatchedCoverageEnv(["a320_cell", "a320_tracking_cell"], num_envs=5, seed=2, num_workers=num_workers,
-                            max_steps=30, lidar_noise=0.02) as env:
+    with BatchedCoverageEnv(
+        ["a320_cell", "a320_tracking_cell"],
+        num_envs=5,
+        seed=2,
+        num_workers=num_workers,
+        max_steps=30,
+        lidar_noise=0.02,
+    ) as env:
         steps = [env.step(action) for action in actions]
-    return [(*tensors, [(index, {k: v for k, v in record.items() if k != "wall_time"}) for index, record in finished])
-            for *tensors, finished in steps]
+    return [
+        (
+            *tensors,
+            [(index, {k: v for k, v in record.items() if k != "wall_time"}) for index, record in finished],
+        )
+        for *tensors, finished in steps
+    ]
 
 
 def test_shard_workers_give_every_result_of_one_process():

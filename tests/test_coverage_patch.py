@@ -43,7 +43,10 @@ def observed_patch(env, observation):
 def test_patch_sits_between_the_rays_and_the_velocities_and_leaves_them_alone():
     plain, patched = CoverageEnv("a320_cell"), CoverageEnv("a320_cell", coverage_patch=CELLS)
     assert patched.observation_space.shape == (6 * 64 + CELLS * CELLS + 2,)
-    assert patched.observation_config["coverage_patch"] == CELLS and plain.observation_config["coverage_patch"] == 0
+    assert (
+        patched.observation_config["coverage_patch"] == CELLS
+        and plain.observation_config["coverage_patch"] == 0
+    )
     first, _ = plain.reset(seed=0)
     second, _ = patched.reset(seed=0)
     rng = np.random.default_rng(0)
@@ -62,8 +65,9 @@ def test_patch_matches_its_definition_as_the_robot_cleans():
     rng = np.random.default_rng(1)
     for step in range(300):
         if step % 25 == 0:
-            np.testing.assert_allclose(observed_patch(env, observation), reference_patch(env.world, *info["pose"]),
-                                       atol=1e-6)
+            np.testing.assert_allclose(
+                observed_patch(env, observation), reference_patch(env.world, *info["pose"]), atol=1e-6
+            )
         observation, _, terminated, truncated, info = env.step([0.8, rng.uniform(-1, 1)])
         if terminated or truncated:
             break
@@ -81,8 +85,23 @@ def test_patch_turns_with_the_robot():
     patches = []
     for quarter in range(4):
         out = np.zeros(CELLS * CELLS, dtype=np.float32)
-        write_coverage_patch(out, 0, x, y, quarter * math.pi / 2, CELLS, CELL_SIZE, world.pass_count,
-                             world.coverable_mask, world.cell_of, world.cell_visible, False, 0.0, 0.0, RESOLUTION)
+        write_coverage_patch(
+            out,
+            0,
+            x,
+            y,
+            quarter * math.pi / 2,
+            CELLS,
+            CELL_SIZE,
+            world.pass_count,
+            world.coverable_mask,
+            world.cell_of,
+            world.cell_visible,
+            False,
+            0.0,
+            0.0,
+            RESOLUTION,
+        )
         patches.append(out.reshape(CELLS, CELLS))
     # After a quarter turn to the left, what was on the left (high columns) lies ahead (high rows)...
     for quarter in range(1, 4):
@@ -99,13 +118,17 @@ def test_sequential_patch_shows_only_floor_that_may_be_cleaned_now():
     # shows, so the patch points the way on.
     assert world.cell_visible.tolist() == [False, True]
     patch = observed_patch(env, observation)
-    assert patch[: CELLS // 2].sum() == 0 and patch[CELLS // 2:].sum() > 0  # nothing behind, the next cell ahead
+    assert (
+        patch[: CELLS // 2].sum() == 0 and patch[CELLS // 2 :].sum() > 0
+    )  # nothing behind, the next cell ahead
     exit_point = env.layout.passages[0].exits[0]
     info, _ = drive(env, [(exit_point[0] - 0.3, exit_point[1]), tuple(exit_point)])
     assert info["current_cell"] == 1
     assert world.cell_visible.tolist() == [False, True]  # the cell behind the bound no longer counts
     observation = world.observe(0)
-    np.testing.assert_allclose(observed_patch(env, observation), reference_patch(world, *world.poses[0]), atol=1e-6)
+    np.testing.assert_allclose(
+        observed_patch(env, observation), reference_patch(world, *world.poses[0]), atol=1e-6
+    )
 
     other = CoverageEnv("b777_3col", coverage_patch=CELLS)
     other.reset(seed=0)
@@ -116,12 +139,18 @@ def test_sequential_patch_shows_only_floor_that_may_be_cleaned_now():
 
 
 def test_patched_envs_pass_the_api_checkers():
-    check_env(gym.make("CabinBench/Coverage-v0", layout="b777_3col", coverage_patch=8, render_mode="rgb_array").unwrapped,
-              skip_render_check=False)
+    check_env(
+        gym.make(
+            "CabinBench/Coverage-v0", layout="b777_3col", coverage_patch=8, render_mode="rgb_array"
+        ).unwrapped,
+        skip_render_check=False,
+    )
     parallel_api_test(parallel_env(layout="b777_3col", n_agents=2, coverage_patch=8), num_cycles=200)
 
 
-@pytest.mark.parametrize("cells, cell_size", [(-1, 0.25), (2.5, 0.25), (True, 0.25), (4, 0.0), (4, float("nan"))])
+@pytest.mark.parametrize(
+    "cells, cell_size", [(-1, 0.25), (2.5, 0.25), (True, 0.25), (4, 0.0), (4, float("nan"))]
+)
 def test_bad_patch_settings_are_refused(cells, cell_size):
     with pytest.raises(ValueError, match="coverage_patch"):
         CoveragePatch(cells, cell_size)

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from baselines.coverage_planning import (
+from cabinbench.baselines.coverage_planning import (
     MIN_PLAN_COVERAGE,
     FreeSpace,
     SweepOptions,
@@ -30,7 +30,7 @@ from baselines.coverage_planning import (
     transpose_cell,
     world_to_pixel,
 )
-from baselines.path_following import PathFollower
+from cabinbench.baselines.path_following import PathFollower
 
 RESOLUTION = 0.05
 TOOL_WIDTH = 0.35
@@ -449,8 +449,10 @@ def test_plan_and_follow_covers_the_reachable_area(scene):
     reachable = reachable_area(centre_free)
     covered = stamp_discs(free.shape, poses[:, :2]) & reachable
     coverage = covered.sum() / reachable.sum()
-    print(f"{scene}: sweep axis {plan.sweep_axis}, {len(plan.cells)} cells, "
-          f"{plan.length:.1f} m planned, {steps} steps, coverage {coverage:.4f}")
+    print(
+        f"{scene}: sweep axis {plan.sweep_axis}, {len(plan.cells)} cells, "
+        f"{plan.length:.1f} m planned, {steps} steps, coverage {coverage:.4f}"
+    )
     assert coverage >= 0.98
 
 
@@ -508,7 +510,12 @@ def test_per_cell_direction_beats_a_single_axis():
     per_cell = plan_coverage(centre_free, RESOLUTION, ORIGIN, TOOL_WIDTH, start)
     for axis in (0, 1):
         single = plan_coverage(
-            centre_free, RESOLUTION, ORIGIN, TOOL_WIDTH, start, sweep_axis=axis,
+            centre_free,
+            RESOLUTION,
+            ORIGIN,
+            TOOL_WIDTH,
+            start,
+            sweep_axis=axis,
             options=SweepOptions(lane_direction="slice"),
         )
         print(f"cabin zone: per-cell {per_cell.length:.2f} m, single axis {axis} {single.length:.2f} m")
@@ -542,8 +549,10 @@ def test_long_cabin_plan_and_its_planning_time():
         begin = time.perf_counter()
         plan = plan_coverage(centre_free, RESOLUTION, ORIGIN, TOOL_WIDTH, (0.3, 2.0))
         timings.append(time.perf_counter() - begin)
-    print(f"400x80 cabin: best of 3 planning times {min(timings) * 1000:.0f} ms, "
-          f"{len(plan.cells)} cells, {plan.length:.1f} m, sweep axis {plan.sweep_axis}")
+    print(
+        f"400x80 cabin: best of 3 planning times {min(timings) * 1000:.0f} ms, "
+        f"{len(plan.cells)} cells, {plan.length:.1f} m, sweep axis {plan.sweep_axis}"
+    )
     assert plan_segments_are_free(plan, centre_free)
 
 

@@ -58,7 +58,9 @@ def test_generic_id_takes_a_layout_name_or_file(tmp_path):
     env = gym.make("CabinBench/Coverage-v0", layout="paper_matrix_a")
     assert env.unwrapped.layout.name == "paper_matrix_a"
     path = tmp_path / "room.yaml"
-    path.write_text("kind: polygons\npolygons:\n  boundary: [[0, 0], [2, 0], [2, 2], [0, 2]]\nstart: [1, 1]\n")
+    path.write_text(
+        "kind: polygons\npolygons:\n  boundary: [[0, 0], [2, 0], [2, 2], [0, 2]]\nstart: [1, 1]\n"
+    )
     env = gym.make("CabinBench/Coverage-v0", layout=str(path), protocol="open")
     observation, _ = env.reset(seed=0)
     assert env.observation_space.contains(observation)
@@ -107,9 +109,13 @@ def test_batched_env_matches_single_envs_and_does_not_depend_on_workers():
     actions = torch.from_numpy(np.random.default_rng(0).uniform(-1, 1, (120, 4, 2)))
     runs = []
     for workers in (1, 2):
-        with BatchedCoverageEnv(["a320_cell", "a320_tracking_cell"], num_envs=4, seed=5, num_workers=workers, max_steps=50) as env:
+        with BatchedCoverageEnv(
+            ["a320_cell", "a320_tracking_cell"], num_envs=4, seed=5, num_workers=workers, max_steps=50
+        ) as env:
             steps = [env.step(action) for action in actions]
-        runs.append((torch.stack([s[0] for s in steps]), torch.stack([s[1] for s in steps]), [s[4] for s in steps]))
+        runs.append(
+            (torch.stack([s[0] for s in steps]), torch.stack([s[1] for s in steps]), [s[4] for s in steps])
+        )
     assert torch.equal(runs[0][0], runs[1][0]) and torch.equal(runs[0][1], runs[1][1])
     finished = [item for step in runs[0][2] for item in step]
     assert len(finished) == 8  # every env truncates at 50 steps, twice in 120

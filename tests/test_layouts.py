@@ -8,7 +8,15 @@ import pytest
 
 from cabinbench.layout import LayoutError, available_layouts, load_layout, parse_layout
 
-BUILTIN = ["a320_cell", "a320_tracking_cell", "shape_changed", "b777_3col", "full_cabin", "paper_matrix_a", "paper_matrix_b"]
+BUILTIN = [
+    "a320_cell",
+    "a320_tracking_cell",
+    "shape_changed",
+    "b777_3col",
+    "full_cabin",
+    "paper_matrix_a",
+    "paper_matrix_b",
+]
 
 ROOM = """
 kind: polygons
@@ -59,30 +67,52 @@ def test_unknown_name_lists_the_valid_ones():
 BROKEN = {
     "unknown key": (ROOM + "colour: red\n", "colour", "unknown key"),
     "wrong type": (ROOM.replace("start: [0.5, 0.5]", "start: [zero, 0.5]"), "start[0]", "expected a number"),
-    "negative size": ("kind: grid\ngrid:\n  cell_size: -0.35\n  map: |\n    S..\n", "grid.cell_size", "positive"),
+    "negative size": (
+        "kind: grid\ngrid:\n  cell_size: -0.35\n  map: |\n    S..\n",
+        "grid.cell_size",
+        "positive",
+    ),
     "zero size": (ROOM + "robot: {radius: 0}\n", "robot.radius", "positive"),
     "empty map": ("kind: grid\ngrid:\n  cell_size: 0.35\n  map: ''\n", "grid.map", "empty map"),
     "start in obstacle": (ROOM.replace("[0.5, 0.5]", "[1.5, 1.0]"), "start", "inside an obstacle"),
     "start outside": (ROOM.replace("[0.5, 0.5]", "[5.0, 0.5]"), "start", "outside the map"),
     "robot too wide": (ROOM + "robot: {radius: 1.2}\n", "robot.radius", "wider than every gap"),
     "unreachable goal": (ROOM + "goals: [[1.5, 1.15]]\n", "goals", "out of the robot's reach"),
-    "unreachable cell": (textwrap.dedent("""
+    "unreachable cell": (
+        textwrap.dedent("""
         kind: polygons
         polygons:
           boundary: [[0, 0], [4, 0], [4, 2], [0, 2]]
           obstacles: [[[1.9, 0], [2.1, 0], [2.1, 2], [1.9, 2]]]
         cells: [{rect: [0, 0, 2, 2]}, {rect: [2, 0, 4, 2]}]
         start: [0.5, 1.0]
-        """), "cells[1]", "no floor the robot can reach"),
-    "open polygon": (ROOM.replace("[[0, 0], [3, 0], [3, 2], [0, 2]]", "[[0, 0], [3, 0]]"), "polygons.boundary", "at least 3 points"),
-    "self-intersecting polygon": (ROOM.replace("[[0, 0], [3, 0], [3, 2], [0, 2]]", "[[0, 0], [3, 2], [3, 0], [0, 2]]"), "polygons.boundary", "intersects itself"),
-    "ragged grid": ("kind: grid\ngrid:\n  cell_size: 0.35\n  map: |\n    S...\n    ..\n", "grid.map", "ragged rows"),
+        """),
+        "cells[1]",
+        "no floor the robot can reach",
+    ),
+    "open polygon": (
+        ROOM.replace("[[0, 0], [3, 0], [3, 2], [0, 2]]", "[[0, 0], [3, 0]]"),
+        "polygons.boundary",
+        "at least 3 points",
+    ),
+    "self-intersecting polygon": (
+        ROOM.replace("[[0, 0], [3, 0], [3, 2], [0, 2]]", "[[0, 0], [3, 2], [3, 0], [0, 2]]"),
+        "polygons.boundary",
+        "intersects itself",
+    ),
+    "ragged grid": (
+        "kind: grid\ngrid:\n  cell_size: 0.35\n  map: |\n    S...\n    ..\n",
+        "grid.map",
+        "ragged rows",
+    ),
     "not yaml": ("kind: [grid\n  : :", "<file>", "not valid YAML"),
     "not a mapping": ("- just\n- a list\n", "<file>", "not a mapping"),
     "unknown kind": ("kind: maze\n", "kind", "cabin, grid, polygons"),
     "cabin without legroom": (
         "kind: cabin\ncabin: {width: 3.7, seat_blocks: [3, 3], aisle_width: 0.48, rows: 2, seat_pitch: 0.8, seat_depth: 0.9}\n",
-        "cabin.seat_depth", "no legroom"),
+        "cabin.seat_depth",
+        "no legroom",
+    ),
 }
 
 

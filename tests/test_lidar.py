@@ -15,14 +15,19 @@ from cabinbench.world import _BOUND_TYPE, _WALL_TYPE
 SEGMENT_TAGS = {_WALL_TYPE: OBSTACLE, _BOUND_TYPE: BOUND}
 
 
-def pymunk_scan(world, circle_on: np.ndarray, x: float, y: float, heading: float) -> tuple[np.ndarray, list[set]]:
+def pymunk_scan(
+    world, circle_on: np.ndarray, x: float, y: float, heading: float
+) -> tuple[np.ndarray, list[set]]:
     """Range of every ray by pymunk, and the tags of what it hits at that range (a ray into a corner where a bound
     meets a wall hits both): the nearest hit over the space's segments and the shown discs (a disc holding the ray
     origin is skipped, as the lidar skips the robot's own)."""
     max_range = world.lidar.max_range
     static = pymunk.Body(body_type=pymunk.Body.STATIC)
-    targets = [(shape, SEGMENT_TAGS[shape.collision_type]) for shape in world.space.shapes
-               if isinstance(shape, pymunk.Segment)]
+    targets = [
+        (shape, SEGMENT_TAGS[shape.collision_type])
+        for shape in world.space.shapes
+        if isinstance(shape, pymunk.Segment)
+    ]
     for (cx, cy, radius), tag, shown in zip(world.circles, world.circle_tags, circle_on):
         if shown and math.hypot(cx - x, cy - y) > radius:
             marker = pymunk.Circle(static, radius, (cx, cy))
@@ -31,8 +36,11 @@ def pymunk_scan(world, circle_on: np.ndarray, x: float, y: float, heading: float
     distances, tags = [], []
     for angle in heading + world.ray_angles:
         end = (x + max_range * math.cos(angle), y + max_range * math.sin(angle))
-        hits = [(hit.alpha * max_range, tag) for shape, tag in targets
-                if (hit := shape.segment_query((x, y), end)) is not None]
+        hits = [
+            (hit.alpha * max_range, tag)
+            for shape, tag in targets
+            if (hit := shape.segment_query((x, y), end)) is not None
+        ]
         nearest = min((distance for distance, _ in hits), default=max_range)
         distances.append(nearest)
         tags.append({tag for distance, tag in hits if distance <= nearest + 1e-9} or {NO_HIT})
@@ -40,7 +48,9 @@ def pymunk_scan(world, circle_on: np.ndarray, x: float, y: float, heading: float
 
 
 # at reset the tracking cell shows its exit through the open bound; full_cabin's first cell its goals and bound
-@pytest.mark.parametrize("layout, tags_to_see", [("a320_tracking_cell", {EXIT}), ("full_cabin", {GOAL, BOUND})])
+@pytest.mark.parametrize(
+    "layout, tags_to_see", [("a320_tracking_cell", {EXIT}), ("full_cabin", {GOAL, BOUND})]
+)
 def test_every_ray_sees_what_pymunk_sees(layout, tags_to_see):
     env = CoverageEnv(layout)
     env.reset(seed=0)
@@ -53,10 +63,26 @@ def test_every_ray_sees_what_pymunk_sees(layout, tags_to_see):
     for row, col in free[rng.choice(len(free), 150, replace=False)]:
         x, y, heading = xs[col], ys[row], rng.uniform(-math.pi, math.pi)
         distances, tags = np.empty(len(world.ray_angles)), np.empty(len(world.ray_angles), dtype=np.int8)
-        cast_rays(x, y, heading, world.ray_angles, world.lidar.max_range, world.segments, world.segment_tags,
-                  world.segment_on, world.circles, world.circle_tags, circle_on, distances, tags)
+        cast_rays(
+            x,
+            y,
+            heading,
+            world.ray_angles,
+            world.lidar.max_range,
+            world.segments,
+            world.segment_tags,
+            world.segment_on,
+            world.circles,
+            world.circle_tags,
+            circle_on,
+            distances,
+            tags,
+        )
         expected_distances, expected_tags = pymunk_scan(world, circle_on, x, y, heading)
         np.testing.assert_allclose(distances, expected_distances, atol=1e-9)
         assert all(tag in expected for tag, expected in zip(tags.tolist(), expected_tags))
         tags_seen |= set(tags.tolist())
-    assert {NO_HIT, OBSTACLE} | tags_to_see <= tags_seen  # the poses covered open floor, walls and markers or bounds
+    assert {
+        NO_HIT,
+        OBSTACLE,
+    } | tags_to_see <= tags_seen  # the poses covered open floor, walls and markers or bounds

@@ -89,8 +89,12 @@ def test_uncovered_floor_is_split_by_distance_from_the_walls():
     clearance = np.array([[0.02, 0.07, 0.15, 0.30, 0.50, 0.0]])  # the last pixel is not coverable
     coverable = np.array([[True, True, True, True, True, False]])
     covered_inner_two = np.array([[0, 0, 0, 1, 2, 0]], dtype=np.uint16)
-    assert uncovered_by_clearance(covered_inner_two, coverable, clearance) == pytest.approx([0.2, 0.2, 0.2, 0, 0])
-    assert uncovered_by_clearance(np.zeros_like(covered_inner_two), coverable, clearance) == pytest.approx([0.2] * 5)
+    assert uncovered_by_clearance(covered_inner_two, coverable, clearance) == pytest.approx(
+        [0.2, 0.2, 0.2, 0, 0]
+    )
+    assert uncovered_by_clearance(np.zeros_like(covered_inner_two), coverable, clearance) == pytest.approx(
+        [0.2] * 5
+    )
     # a real episode: the robot drives down the middle of a corridor 0.65 m wide, its disc 15 cm from either side
     # wall, so it leaves uncovered only floor within 15 cm of them; the bands sum to 1 - coverage
     layout = room(1.2, 0.65, (0.25, 0.325))

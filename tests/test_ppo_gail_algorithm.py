@@ -17,7 +17,7 @@ from rsl_rl.env import VecEnv
 from rsl_rl.runners import OnPolicyRunner
 from tensordict import TensorDict
 
-from baselines.ppo_gail import ABLATIONS, DemonstrationError, load_demonstrations, make_train_cfg
+from cabinbench.baselines.ppo_gail import ABLATIONS, DemonstrationError, load_demonstrations, make_train_cfg
 
 OBSERVATION_CONFIG = {"policy": ["goal_relative_position_xy", "velocity_xy"]}
 EXTRA_LOSSES = {
@@ -26,9 +26,9 @@ EXTRA_LOSSES = {
 }
 
 
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 # A tiny real environment and its expert
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 
 
 class PointMassEnv(VecEnv):
@@ -43,7 +43,9 @@ class PointMassEnv(VecEnv):
     VELOCITY_LAG = 0.7
     GOAL_RADIUS = 0.1
 
-    def __init__(self, num_envs: int = 32, max_episode_length: int = 50, seed: int = 0, extrinsic_reward=True):
+    def __init__(
+        self, num_envs: int = 32, max_episode_length: int = 50, seed: int = 0, extrinsic_reward=True
+    ):
         self.num_envs = num_envs
         self.num_actions = 2
         self.max_episode_length = max_episode_length
@@ -173,9 +175,9 @@ def random_states(count: int, generator: torch.Generator) -> torch.Tensor:
     return torch.cat([goal, velocity], dim=-1)
 
 
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 # Tests
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 
 
 @pytest.mark.parametrize("variant", sorted(ABLATIONS))
@@ -264,8 +266,12 @@ def test_shaping_columns_are_all_that_the_icm_and_the_discriminator_see(demonstr
     states = random_states(64, torch.Generator().manual_seed(0))
     actions = torch.zeros(64, 2)
     other_velocity = torch.cat([states[:, :2], -states[:, 2:]], dim=-1)
-    rewards = [alg.discriminator.reward(alg._shaping_observation(TensorDict({"policy": s}, batch_size=[64])), actions)
-               for s in (states, other_velocity)]
+    rewards = [
+        alg.discriminator.reward(
+            alg._shaping_observation(TensorDict({"policy": s}, batch_size=[64])), actions
+        )
+        for s in (states, other_velocity)
+    ]
     torch.testing.assert_close(rewards[0], rewards[1])
     with pytest.raises(RuntimeError):
         alg.discriminator.reward(states, actions)  # the whole observation does not fit D
@@ -295,9 +301,16 @@ def test_checkpoint_restores_icm_and_discriminator_with_weights_only_loading(dem
     checkpoint = torch.load(path, weights_only=True)
     restored.alg.load(checkpoint, load_cfg=None, strict=True)
 
-    for module, optimizer in (("curiosity", "curiosity_optimizer"), ("discriminator", "discriminator_optimizer")):
-        assert _state_equal(getattr(restored.alg, module).state_dict(), getattr(trained.alg, module).state_dict())
-        assert _state_equal(getattr(restored.alg, optimizer).state_dict(), getattr(trained.alg, optimizer).state_dict())
+    for module, optimizer in (
+        ("curiosity", "curiosity_optimizer"),
+        ("discriminator", "discriminator_optimizer"),
+    ):
+        assert _state_equal(
+            getattr(restored.alg, module).state_dict(), getattr(trained.alg, module).state_dict()
+        )
+        assert _state_equal(
+            getattr(restored.alg, optimizer).state_dict(), getattr(trained.alg, optimizer).state_dict()
+        )
     assert _state_equal(restored.alg.actor.state_dict(), trained.alg.actor.state_dict())
 
     # Evaluating the policy needs neither the demonstrations nor the reward modules.
@@ -333,7 +346,9 @@ def _write_demonstration(path, **overrides) -> str:
 def test_loading_a_valid_demonstration(tmp_path):
     path = _write_demonstration(tmp_path / "ok.npz")
 
-    observations, actions = load_demonstrations([path, path], 4, 2, expected_observation_config=OBSERVATION_CONFIG)
+    observations, actions = load_demonstrations(
+        [path, path], 4, 2, expected_observation_config=OBSERVATION_CONFIG
+    )
 
     assert observations.shape == (20, 4) and actions.shape == (20, 2)
     assert observations.dtype == actions.dtype == torch.float32

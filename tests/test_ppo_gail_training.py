@@ -18,10 +18,11 @@ import numpy as np
 import pytest
 import torch
 
-from baselines.base import EpisodeContext, load_baseline
-from baselines.ppo_gail import training
-from baselines.ppo_gail.algorithm import PPOCuriosityGail
-from baselines.ppo_gail.policy import CHECKPOINT_DIR, PolicyFileError, read_policy_file
+from cabinbench import training_records
+from cabinbench.agents import EpisodeContext, load_baseline
+from cabinbench.baselines.ppo_gail import training
+from cabinbench.baselines.ppo_gail.algorithm import PPOCuriosityGail
+from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR, PolicyFileError, read_policy_file
 from cabinbench.episodes import run_episode
 from cabinbench.layout import load_layout
 
@@ -29,9 +30,19 @@ SHIPPED = ("ppo_gail", "ppo", "ppo_icm", "ppo_gail_only")
 
 
 def tiny_config(**overrides) -> training.TrainConfig:
-    settings = dict(ablation="ppo_gail", layouts=["a320_cell"], num_envs=8, num_steps_per_env=16, iterations=3,
-                    max_steps=30, demo_episodes=2, save_interval=2, threads=1, hidden_dims=[32, 32],
-                    validation_episodes=2)
+    settings = dict(
+        ablation="ppo_gail",
+        layouts=["a320_cell"],
+        num_envs=8,
+        num_steps_per_env=16,
+        iterations=3,
+        max_steps=30,
+        demo_episodes=2,
+        save_interval=2,
+        threads=1,
+        hidden_dims=[32, 32],
+        validation_episodes=2,
+    )
     return training.TrainConfig(**{**settings, **overrides})
 
 
@@ -59,7 +70,7 @@ def test_train_interrupt_resume_export_reload_and_evaluate(tmp_path, monkeypatch
     assert interrupted.interrupted and interrupted.iterations == 2 and interrupted.policy_path is None
     assert [path.name for path in (run_dir / "checkpoints").iterdir()] == ["model_000002.pt"]
     assert not list(run_dir.rglob("*.tmp*"))
-    rows_before = training.read_metrics(run_dir / "metrics.csv")
+    rows_before = training_records.read_metrics(run_dir / "metrics.csv")
     assert [row["iteration"] for row in rows_before] == ["1", "2"]
     monkeypatch.undo()
 
@@ -85,12 +96,18 @@ def test_train_interrupt_resume_export_reload_and_evaluate(tmp_path, monkeypatch
     assert loaded == [2, 2, 3, 3]  # resumed from 2; each checkpoint validated; the last one exported
     assert read_policy_file(result.policy_path)["training"]["exported_iteration"] == 3
     assert not result.interrupted and result.iterations == 3
-    rows = training.read_metrics(run_dir / "metrics.csv")
+    rows = training_records.read_metrics(run_dir / "metrics.csv")
     assert [row["iteration"] for row in rows] == ["1", "2", "3"]
     assert rows[:2] == rows_before
     assert int(rows[-1]["timesteps"]) == 3 * 8 * 16
     assert float(rows[-1]["train_time"]) > float(rows[-2]["train_time"])
-    for column in ("gail_discriminator", "curiosity_forward", "curiosity_inverse", "policy_loss", "value_loss"):
+    for column in (
+        "gail_discriminator",
+        "curiosity_forward",
+        "curiosity_inverse",
+        "policy_loss",
+        "value_loss",
+    ):
         assert np.isfinite(float(rows[-1][column])), column
     assert any(row["episodes"] != "0" for row in rows)  # 30-step episodes end within the run
     checkpoint = torch.load(run_dir / "checkpoints" / "model_000003.pt", weights_only=True)
@@ -104,8 +121,13 @@ def test_train_interrupt_resume_export_reload_and_evaluate(tmp_path, monkeypatch
     assert policy["ablation"] == "ppo_gail" and policy["training"]["iterations"] == 3
     baseline = load_baseline("ppo_gail", checkpoint=str(result.policy_path))
     assert baseline.config == {"checkpoint": str(result.policy_path), "stochastic": True}
-    record, trajectory = run_episode("ppo_gail", "a320_cell", seed=0, env_kwargs={"max_steps": 40},
-                                     config={"checkpoint": str(result.policy_path)})
+    record, trajectory = run_episode(
+        "ppo_gail",
+        "a320_cell",
+        seed=0,
+        env_kwargs={"max_steps": 40},
+        config={"checkpoint": str(result.policy_path)},
+    )
     assert record["steps"] == 40 and len(trajectory["positions"]) == 41
     assert record["path_length"] > 0
 
@@ -118,8 +140,13 @@ def test_every_checkpoint_is_validated_and_the_last_or_the_best_exported(tmp_pat
     from cabinbench import episodes
 
     run_dir = tmp_path / "run"
-    config = tiny_config(ablation="ppo", layouts=["a320_cell", "a320_tracking_cell"], iterations=4, save_interval=1,
-                         validation_episodes=2)
+    config = tiny_config(
+        ablation="ppo",
+        layouts=["a320_cell", "a320_tracking_cell"],
+        iterations=4,
+        save_interval=1,
+        validation_episodes=2,
+    )
     played, original = [], episodes.run_episode
 
     def recording_run_episode(baseline, layout, seed, **kwargs):
@@ -131,16 +158,22 @@ def test_every_checkpoint_is_validated_and_the_last_or_the_best_exported(tmp_pat
     monkeypatch.setattr(episodes, "run_episode", recording_run_episode)
     interrupted = training.train(config, run_dir, progress=False)
     assert interrupted.interrupted and interrupted.iterations == 4 and interrupted.policy_path is None
-    rows = training.read_metrics(run_dir / "validation.csv")
+    rows = training_records.read_metrics(run_dir / "validation.csv")
     assert [(row["iteration"], row["layout"]) for row in rows] == [
-        ("1", "a320_cell"), ("1", "a320_tracking_cell"), ("2", "a320_cell"), ("2", "a320_tracking_cell")]
+        ("1", "a320_cell"),
+        ("1", "a320_tracking_cell"),
+        ("2", "a320_cell"),
+        ("2", "a320_tracking_cell"),
+    ]
     seeds = [training.VALIDATION_SEED, training.VALIDATION_SEED + 1]
-    assert played[:4] == [("a320_cell", seed) for seed in seeds] + [("a320_tracking_cell", seed) for seed in seeds]
+    assert played[:4] == [("a320_cell", seed) for seed in seeds] + [
+        ("a320_tracking_cell", seed) for seed in seeds
+    ]
 
     played.clear()
     result = training.train(config, run_dir, resume=True, progress=False)
     assert len(played) == 2 * 2 * 2  # checkpoints 3 and 4 only
-    rows = training.read_metrics(run_dir / "validation.csv")
+    rows = training_records.read_metrics(run_dir / "validation.csv")
     assert [row["iteration"] for row in rows] == ["1", "1", "2", "2", "3", "3", "4", "4"]
     assert all(row["episodes"] == "2" and 0 < float(row["coverage"]) <= 1 for row in rows)
     assert read_policy_file(result.policy_path)["training"]["exported_iteration"] == 4
@@ -150,10 +183,14 @@ def test_every_checkpoint_is_validated_and_the_last_or_the_best_exported(tmp_pat
     played.clear()
     result = training.train(dataclasses.replace(config, export="best"), run_dir, resume=True, progress=False)
     assert not played  # every checkpoint is validated already
-    scores = {iteration: training.validation_score([row for row in rows if row["iteration"] == str(iteration)])
-              for iteration in range(1, 5)}
+    scores = {
+        iteration: training_records.validation_score(
+            [row for row in rows if row["iteration"] == str(iteration)]
+        )
+        for iteration in range(1, 5)
+    }
     best = max(scores, key=lambda iteration: (scores[iteration], iteration))
-    assert training.best_checkpoint(rows) == (best, scores[best])
+    assert training_records.best_checkpoint(rows) == (best, scores[best])
     assert read_policy_file(result.policy_path)["training"]["exported_iteration"] == best
     assert _same_actor(result.policy_path, run_dir / "validation" / f"policy_{best:06d}.pt")
     other = next(iteration for iteration in scores if iteration != best)
@@ -161,14 +198,18 @@ def test_every_checkpoint_is_validated_and_the_last_or_the_best_exported(tmp_pat
 
 
 def _same_actor(path, other_path) -> bool:
-    actor, other = read_policy_file(path)["actor"]["state_dict"], read_policy_file(other_path)["actor"]["state_dict"]
+    actor, other = (
+        read_policy_file(path)["actor"]["state_dict"],
+        read_policy_file(other_path)["actor"]["state_dict"],
+    )
     return all(torch.equal(actor[key], other[key]) for key in actor)
 
 
 def test_training_with_a_coverage_patch_keeps_it_from_the_icm_and_the_discriminator(tmp_path):
     """The actor sees the patch; the reward-shaping modules see the 64 rays and the velocity only."""
-    result = training.train(tiny_config(coverage_patch=4, iterations=1, save_interval=1), tmp_path / "run",
-                            progress=False)
+    result = training.train(
+        tiny_config(coverage_patch=4, iterations=1, save_interval=1), tmp_path / "run", progress=False
+    )
     checkpoint = torch.load(tmp_path / "run" / "checkpoints" / "model_000001.pt", weights_only=True)
     shaping_inputs, actions = 6 * 64 + 2, 2
     assert _input_size(checkpoint["discriminator_state_dict"]) == shaping_inputs + actions
@@ -185,17 +226,24 @@ def test_exported_actor_reproduces_rsl_rl_inference_policy(tmp_path):
     from rsl_rl.runners import OnPolicyRunner
     from tensordict import TensorDict
 
-    from baselines.ppo_gail.algorithm import make_train_cfg
-    from baselines.ppo_gail.policy import export_policy
+    from cabinbench.baselines.ppo_gail.algorithm import make_train_cfg
+    from cabinbench.baselines.ppo_gail.policy import export_policy
     from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
 
     torch.manual_seed(0)
     env = RslRlVecEnv(BatchedCoverageEnv("a320_cell", 4, seed=0, max_steps=50))
-    runner = OnPolicyRunner(env, make_train_cfg("ppo", num_steps_per_env=8, hidden_dims=[48, 24], activation="tanh"),
-                            log_dir=None)
+    runner = OnPolicyRunner(
+        env, make_train_cfg("ppo", num_steps_per_env=8, hidden_dims=[48, 24], activation="tanh"), log_dir=None
+    )
     runner.learn(2)  # non-trivial weights and observation statistics
-    path = export_policy(runner, tmp_path / "policy.pt", ablation="ppo", observation_config={"size": 386},
-                         env_config={}, training={})
+    path = export_policy(
+        runner,
+        tmp_path / "policy.pt",
+        ablation="ppo",
+        observation_config={"size": 386},
+        env_config={},
+        training={},
+    )
 
     network = read_policy_file(path)["network"]
     reference = runner.get_inference_policy("cpu")
@@ -219,7 +267,9 @@ def test_bad_policy_files_give_clear_errors(tmp_path):
 
     runner_checkpoint = tmp_path / "model.pt"
     torch.save({"actor_state_dict": {}, "iter": 3}, runner_checkpoint)
-    with pytest.raises(PolicyFileError, match="not a cabinbench policy file.*full rsl-rl training checkpoint"):
+    with pytest.raises(
+        PolicyFileError, match="not a cabinbench policy file.*full rsl-rl training checkpoint"
+    ):
         read_policy_file(runner_checkpoint)
 
     policy = _small_policy(tmp_path)
@@ -236,11 +286,18 @@ def test_bad_policy_files_give_clear_errors(tmp_path):
 
     # Trained with 64 rays; the env has 32.
     with pytest.raises(PolicyFileError, match="another observation layout.*n_rays: trained 64, env 32"):
-        run_episode("ppo", "a320_cell", seed=0, env_kwargs={"n_rays": 32, "max_steps": 5},
-                    config={"checkpoint": str(policy)})
+        run_episode(
+            "ppo",
+            "a320_cell",
+            seed=0,
+            env_kwargs={"n_rays": 32, "max_steps": 5},
+            config={"checkpoint": str(policy)},
+        )
     # A 'ppo' policy is not a 'ppo_gail' one.
     with pytest.raises(PolicyFileError, match="holds a 'ppo' policy, not 'ppo_gail'"):
-        run_episode("ppo_gail", "a320_cell", seed=0, env_kwargs={"max_steps": 5}, config={"checkpoint": str(policy)})
+        run_episode(
+            "ppo_gail", "a320_cell", seed=0, env_kwargs={"max_steps": 5}, config={"checkpoint": str(policy)}
+        )
 
 
 def test_stochastic_option_samples_the_trained_gaussian_reproducibly(tmp_path):
@@ -252,7 +309,9 @@ def test_stochastic_option_samples_the_trained_gaussian_reproducibly(tmp_path):
     first, _ = run_episode("ppo", "a320_cell", seed=3, config=config, **episode)
     again, _ = run_episode("ppo", "a320_cell", seed=3, config=config, **episode)
     other, _ = run_episode("ppo", "a320_cell", seed=4, config=config, **episode)
-    mean, _ = run_episode("ppo", "a320_cell", seed=3, config={"checkpoint": str(policy), "stochastic": False}, **episode)
+    mean, _ = run_episode(
+        "ppo", "a320_cell", seed=3, config={"checkpoint": str(policy), "stochastic": False}, **episode
+    )
 
     assert first["path_length"] == again["path_length"]
     assert first["path_length"] != other["path_length"]
@@ -266,39 +325,83 @@ def test_a_policy_runs_in_the_observation_it_was_trained_on(tmp_path):
     policy = _small_policy(tmp_path, coverage_patch=4)
     baseline = load_baseline("ppo", checkpoint=str(policy))
     assert baseline.env_options["coverage_patch"] == 4
-    record, _ = run_episode("ppo", "a320_cell", seed=0, env_kwargs={"max_steps": 10}, config={"checkpoint": str(policy)})
+    record, _ = run_episode(
+        "ppo", "a320_cell", seed=0, env_kwargs={"max_steps": 10}, config={"checkpoint": str(policy)}
+    )
     assert record["steps"] == 10
 
     from cabinbench.run import main as run_main
 
     out = tmp_path / "runs"
-    assert run_main(["--baseline", "ppo", "--layout", "a320_cell", "--episodes", "1", "--max-steps", "10",
-                     "--config", json.dumps({"checkpoint": str(policy)}), "--out", str(out), "--json"]) == 0
+    assert (
+        run_main(
+            [
+                "--baseline",
+                "ppo",
+                "--layout",
+                "a320_cell",
+                "--episodes",
+                "1",
+                "--max-steps",
+                "10",
+                "--config",
+                json.dumps({"checkpoint": str(policy)}),
+                "--out",
+                str(out),
+                "--json",
+            ]
+        )
+        == 0
+    )
     header = json.loads(next(out.glob("*.jsonl")).read_text().splitlines()[0])
     assert header["env_config"]["coverage_patch"] == 4
 
 
-def _small_policy(tmp_path, **env_kwargs) -> "os.PathLike":
+def _small_policy(tmp_path, **env_kwargs) -> os.PathLike:
     """An exported, untrained 'ppo' policy for the default 64-ray env (or one made with ``env_kwargs``)."""
     from rsl_rl.runners import OnPolicyRunner
 
-    from baselines.ppo_gail.algorithm import make_train_cfg
-    from baselines.ppo_gail.policy import export_policy
+    from cabinbench.baselines.ppo_gail.algorithm import make_train_cfg
+    from cabinbench.baselines.ppo_gail.policy import export_policy
     from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
 
     batched = BatchedCoverageEnv("a320_cell", 2, seed=0, max_steps=20, **env_kwargs)
-    runner = OnPolicyRunner(RslRlVecEnv(batched), make_train_cfg("ppo", num_steps_per_env=4, hidden_dims=[16]),
-                            log_dir=None)
-    return export_policy(runner, tmp_path / "ppo.pt", ablation="ppo", observation_config=batched.example_env.observation_config,
-                         env_config={}, training={})
+    runner = OnPolicyRunner(
+        RslRlVecEnv(batched), make_train_cfg("ppo", num_steps_per_env=4, hidden_dims=[16]), log_dir=None
+    )
+    return export_policy(
+        runner,
+        tmp_path / "ppo.pt",
+        ablation="ppo",
+        observation_config=batched.example_env.observation_config,
+        env_config={},
+        training={},
+    )
 
 
 def test_train_cli_options_set_the_training_config(tmp_path):
-    from cabinbench.train import build_config, parse_args
+    from cabinbench.baselines.ppo_gail.cli import build_config, parse_args
 
-    config, run_dir = build_config(parse_args(["--baseline", "ppo_icm", "--seed", "3", "--iterations", "7",
-                                                "--random-start", "--coverage-patch", "8", "--no-terminate-on-bound",
-                                                "--algorithm", '{"gamma": 0.995}', "--run-dir", str(tmp_path)]))
+    config, run_dir = build_config(
+        parse_args(
+            [
+                "--baseline",
+                "ppo_icm",
+                "--seed",
+                "3",
+                "--iterations",
+                "7",
+                "--random-start",
+                "--coverage-patch",
+                "8",
+                "--no-terminate-on-bound",
+                "--algorithm",
+                '{"gamma": 0.995}',
+                "--run-dir",
+                str(tmp_path),
+            ]
+        )
+    )
     assert (config.ablation, config.seed, config.iterations) == ("ppo_icm", 3, 7)
     assert config.random_start and config.coverage_patch == 8 and not config.terminate_on_bound
     assert config.algorithm == {"gamma": 0.995} and run_dir == tmp_path
@@ -307,8 +410,12 @@ def test_train_cli_options_set_the_training_config(tmp_path):
 
 
 def test_train_cli_rejects_unknown_baseline():
-    completed = subprocess.run([sys.executable, "-m", "cabinbench.train", "--baseline", "nope"],
-                               capture_output=True, text=True, timeout=60)
+    completed = subprocess.run(
+        [sys.executable, "-m", "cabinbench.train", "--baseline", "nope"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert completed.returncode == 2
     assert "nope" in completed.stderr
     for name in SHIPPED:
@@ -318,7 +425,9 @@ def test_train_cli_rejects_unknown_baseline():
 @pytest.mark.parametrize("name", SHIPPED)
 def test_shipped_policy_loads_and_acts(name):
     path = CHECKPOINT_DIR / f"{name}.pt"
-    assert path.is_file(), f"{path} is missing: train it with python -m cabinbench.train --baseline {name} --ship"
+    assert path.is_file(), (
+        f"{path} is missing: train it with python -m cabinbench.train --baseline {name} --ship"
+    )
     assert path.stat().st_size < 1_000_000
     policy = read_policy_file(path)
     assert policy["ablation"] == name and policy["training"]["iterations"] > 0
@@ -333,27 +442,70 @@ def test_shipped_policy_loads_and_acts(name):
 def test_ship_installs_the_policy_and_keeps_its_training_records(tmp_path, monkeypatch):
     """``train --ship``: the policy lands where ``run --baseline`` finds it, and the run's config, metrics and
     validation land in results/training/, from which the leaderboard draws the committed training curve."""
-    from baselines.ppo_gail import policy
     from cabinbench import leaderboard
     from cabinbench.train import main as train_main
 
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(policy, "CHECKPOINT_DIR", tmp_path / "checkpoints")
-    status = train_main(["--baseline", "ppo", "--layout", "a320_cell", "--iterations", "2", "--num-envs", "4",
-                         "--steps-per-env", "8", "--max-steps", "20", "--run-dir", "run", "--ship", "--no-progress"])
+    (tmp_path / "checkpoints").mkdir()
+    status = train_main(
+        [
+            "--baseline",
+            "ppo",
+            "--layout",
+            "a320_cell",
+            "--iterations",
+            "2",
+            "--num-envs",
+            "4",
+            "--steps-per-env",
+            "8",
+            "--max-steps",
+            "20",
+            "--run-dir",
+            "run",
+            "--ship",
+            "--ship-dir",
+            "checkpoints",
+            "--no-progress",
+        ]
+    )
     assert status == 0
     assert read_policy_file(tmp_path / "checkpoints" / "ppo.pt")["ablation"] == "ppo"
     records = tmp_path / "results" / "training" / "ppo"
-    assert len(training.read_metrics(records / "metrics.csv")) == 2
-    assert [row["iteration"] for row in training.read_metrics(records / "validation.csv")] == ["2"]  # the one checkpoint
+    assert len(training_records.read_metrics(records / "metrics.csv")) == 2
+    assert [row["iteration"] for row in training_records.read_metrics(records / "validation.csv")] == [
+        "2"
+    ]  # the one checkpoint
     # --keep: a further training seed's policy and records, beside the shipped run's
-    status = train_main(["--baseline", "ppo", "--layout", "a320_cell", "--iterations", "1", "--num-envs", "4",
-                         "--steps-per-env", "8", "--max-steps", "20", "--run-dir", "run3", "--seed", "3", "--keep",
-                         "--no-progress"])
+    status = train_main(
+        [
+            "--baseline",
+            "ppo",
+            "--layout",
+            "a320_cell",
+            "--iterations",
+            "1",
+            "--num-envs",
+            "4",
+            "--steps-per-env",
+            "8",
+            "--max-steps",
+            "20",
+            "--run-dir",
+            "run3",
+            "--seed",
+            "3",
+            "--keep",
+            "--no-progress",
+        ]
+    )
     assert status == 0
     kept = records / "seed3"
-    assert read_policy_file(kept / "policy.pt")["ablation"] == "ppo" and json.loads((kept / "config.json").read_text())["seed"] == 3
-    assert len(training.read_metrics(kept / "metrics.csv")) == 1
-    assert len(training.read_metrics(kept / "validation.csv")) == 1
+    assert (
+        read_policy_file(kept / "policy.pt")["ablation"] == "ppo"
+        and json.loads((kept / "config.json").read_text())["seed"] == 3
+    )
+    assert len(training_records.read_metrics(kept / "metrics.csv")) == 1
+    assert len(training_records.read_metrics(kept / "validation.csv")) == 1
     figures = leaderboard.training_figures(tmp_path / "results" / "training", tmp_path)
     assert [path.name for path in figures] == ["training__ppo.png"] and figures[0].stat().st_size > 10_000

@@ -91,7 +91,6 @@ def test_open_protocol_succeeds_on_coverage():
     assert np.isclose(env.world.coverage, env.world.covered_coverable_pixels / env.world.coverable_pixels)
 
 
-
 def test_every_bound_the_team_passed_closes_once_all_robots_are_through():
     """The leader clears two cells and passes two exits while the other robot waits in cell 0:
     both bounds stay open for it, and both close once it has caught up."""
@@ -127,7 +126,10 @@ def test_random_start_draws_a_seeded_pose_where_the_robot_fits_in_the_start_cell
     fixed = CoverageEnv("a320_tracking_cell")
     assert np.array_equal(fixed.reset(seed=5)[1]["pose"], fixed.layout.start)
 
-    env, twin = CoverageEnv("a320_tracking_cell", random_start=True), CoverageEnv("a320_tracking_cell", random_start=True)
+    env, twin = (
+        CoverageEnv("a320_tracking_cell", random_start=True),
+        CoverageEnv("a320_tracking_cell", random_start=True),
+    )
     layout = env.layout
     start_cell = layout.cell_raster[layout.to_pixel(*layout.start[:2])]
     poses = []
@@ -138,7 +140,9 @@ def test_random_start_draws_a_seeded_pose_where_the_robot_fits_in_the_start_cell
         assert layout.cell_raster[pixel] == start_cell and layout.centre_free[pixel]
         poses.append(pose)
     poses = np.array(poses)
-    assert len(np.unique(poses[:, :2], axis=0)) >= 15 and np.ptp(poses[:, 2]) > 3.0  # spread over the cell and around
+    assert (
+        len(np.unique(poses[:, :2], axis=0)) >= 15 and np.ptp(poses[:, 2]) > 3.0
+    )  # spread over the cell and around
 
     # The same seed gives the same episode from there on.
     rng = np.random.default_rng(0)

@@ -34,8 +34,10 @@ def run_main(argv: list[str]) -> tuple[int, str, str]:
 
 def stable(records: list[dict]) -> list[dict]:
     """Records in episode order without the fields that depend on the clock."""
-    return [{k: v for k, v in record.items() if k not in VARYING}
-            for record in sorted(records, key=lambda record: record["episode"])]
+    return [
+        {k: v for k, v in record.items() if k not in VARYING}
+        for record in sorted(records, key=lambda record: record["episode"])
+    ]
 
 
 def lines(path: str) -> list[dict]:
@@ -81,7 +83,9 @@ def test_json_summary(short_run):
 
 
 def test_same_seed_same_metrics_and_workers_agree(short_run, tmp_path):
-    status, stdout, _ = run_main([*SHORT, "--episodes", "3", "--out", str(tmp_path), "--json", "--workers", "2"])
+    status, stdout, _ = run_main(
+        [*SHORT, "--episodes", "3", "--out", str(tmp_path), "--json", "--workers", "2"]
+    )
     assert status == 0
     assert stable(lines(json.loads(stdout)["records"])) == stable(lines(short_run["records"]))
 
@@ -135,10 +139,25 @@ def test_truncated_last_line_is_skipped(short_run, tmp_path):
 
 
 def test_unknown_names_exit_2_listing_valid_ones(tmp_path):
-    status, _, stderr = run_main(["--baseline", "no_such_planner", "--layout", "a320_cell", "--out", str(tmp_path)])
+    status, _, stderr = run_main(
+        ["--baseline", "no_such_planner", "--layout", "a320_cell", "--out", str(tmp_path)]
+    )
     assert status == 2 and "random_bounce" in stderr and "boustrophedon" in stderr
-    result = subprocess.run([sys.executable, "-m", "cabinbench.run", "--baseline", "random_bounce", "--layout",
-                             "no_such_cabin", "--out", str(tmp_path)], capture_output=True, text=True)
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "cabinbench.run",
+            "--baseline",
+            "random_bounce",
+            "--layout",
+            "no_such_cabin",
+            "--out",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert result.returncode == 2 and "Traceback" not in result.stderr
     assert all(name in result.stderr for name in available_layouts())
     assert not list(tmp_path.iterdir())  # nothing written
@@ -147,7 +166,9 @@ def test_unknown_names_exit_2_listing_valid_ones(tmp_path):
 @pytest.mark.parametrize("suffix", ["png", "gif"])
 def test_render(tmp_path, suffix):
     picture = tmp_path / f"x.{suffix}"
-    status, stdout, _ = run_main([*SHORT, "--episodes", "1", "--out", str(tmp_path), "--render", str(picture)])
+    status, stdout, _ = run_main(
+        [*SHORT, "--episodes", "1", "--out", str(tmp_path), "--render", str(picture)]
+    )
     assert status == 0 and str(picture) in stdout
     with Image.open(picture) as image:
         assert image.width > 100 and image.height > 100
@@ -157,7 +178,9 @@ def test_render(tmp_path, suffix):
 
 def test_team_run_goes_through_the_parallel_env(tmp_path):
     pytest.importorskip("cabinbench.envs.team_env", reason="the PettingZoo team env is not in this checkout")
-    status, stdout, _ = run_main([*SHORT, "--agents", "2", "--episodes", "1", "--out", str(tmp_path), "--json"])
+    status, stdout, _ = run_main(
+        [*SHORT, "--agents", "2", "--episodes", "1", "--out", str(tmp_path), "--json"]
+    )
     assert status == 0
     [record] = lines(json.loads(stdout)["records"])
     assert record["n_agents"] == 2 and set(TEAM_METRICS) <= set(record) and len(record["path_lengths"]) == 2
@@ -169,13 +192,21 @@ def test_leaderboard_is_reproducible(short_run, tmp_path):
     outputs = []
     for _ in range(2):
         assert leaderboard.main(["--runs", str(runs), "--out", str(tmp_path)]) == 0
-        outputs.append({path.relative_to(tmp_path): path.read_bytes() for path in sorted(tmp_path.rglob("*.*"))})
+        outputs.append(
+            {path.relative_to(tmp_path): path.read_bytes() for path in sorted(tmp_path.rglob("*.*"))}
+        )
     assert outputs[0] == outputs[1]
     names = {str(path) for path in outputs[0]}
-    assert {"leaderboard.md", "leaderboard.csv", "uncovered.md", "uncovered.csv",
-            "figures/bars_coverage.png", "figures/bars_time.png",
-            "figures/coverage_time__a320_cell.png",
-            "figures/trajectory__a320_cell__random_bounce__sequential__k1.png"} <= names
+    assert {
+        "leaderboard.md",
+        "leaderboard.csv",
+        "uncovered.md",
+        "uncovered.csv",
+        "figures/bars_coverage.png",
+        "figures/bars_time.png",
+        "figures/coverage_time__a320_cell.png",
+        "figures/trajectory__a320_cell__random_bounce__sequential__k1.png",
+    } <= names
     table = (tmp_path / "leaderboard.md").read_text()
     assert "CITATION.cff" in table and f"python -m cabinbench.leaderboard --runs {runs}" in table
     assert "| a320_cell | 0.3011 / 23.19 | random_bounce | sequential | 1 | 3 | 3 |" in table
@@ -192,7 +223,9 @@ def test_uncovered_table_leaves_out_runs_whose_layout_changed(short_run, tmp_pat
     runs = tmp_path / "runs"
     runs.mkdir()
     records = [json.loads(line) for line in source.read_text().splitlines()]
-    (runs / source.name).write_text("".join(json.dumps({**r, "layout_hash": "0" * 16}) + "\n" for r in records))
+    (runs / source.name).write_text(
+        "".join(json.dumps({**r, "layout_hash": "0" * 16}) + "\n" for r in records)
+    )
     shutil.copy(source.with_suffix(".npz"), runs / source.with_suffix(".npz").name)
     assert leaderboard.main(["--runs", str(runs), "--out", str(tmp_path / "out")]) == 0
     table = (tmp_path / "out" / "uncovered.md").read_text()
@@ -224,7 +257,7 @@ def test_ablation_table_scores_each_training_run_and_their_spread(tmp_path):
     """The shipped ppo policy's episodes (in --runs) and another policy file's (in --ablation-runs) are scored per
     policy; the table gives the mean over policies with the lowest and highest; the leaderboard keeps only the
     shipped policy's episodes."""
-    from baselines.ppo_gail.policy import CHECKPOINT_DIR
+    from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR
 
     other = tmp_path / "training" / "ppo" / "seed7" / "policy.pt"
     other.parent.mkdir(parents=True)
@@ -232,7 +265,10 @@ def test_ablation_table_scores_each_training_run_and_their_spread(tmp_path):
     short = ["--baseline", "ppo", "--layout", "a320_cell", "--max-steps", "150", "--episodes", "2"]
     assert run_main([*short, "--seed", "0", "--out", str(tmp_path / "runs")])[0] == 0
     config = json.dumps({"checkpoint": str(other)})
-    assert run_main([*short, "--seed", "10", "--config", config, "--out", str(tmp_path / "ablation_runs")])[0] == 0
+    assert (
+        run_main([*short, "--seed", "10", "--config", config, "--out", str(tmp_path / "ablation_runs")])[0]
+        == 0
+    )
 
     assert leaderboard.main(["--runs", str(tmp_path / "runs"), "--out", str(tmp_path / "out")]) == 0
     shipped = read_records(tmp_path / "runs")["coverage"].mean()
@@ -240,10 +276,16 @@ def test_ablation_table_scores_each_training_run_and_their_spread(tmp_path):
     assert shipped != seed7  # different episode seeds: the two policies' scores differ
     table = (tmp_path / "out" / "ablation.md").read_text()
     low, high = sorted([shipped, seed7])
-    assert (f"| a320_cell | ppo | no | no | 2 | 4 | {(shipped + seed7) / 2:.3f} [{low:.3f}, {high:.3f}] |" in table)
+    assert (
+        f"| a320_cell | ppo | no | no | 2 | 4 | {(shipped + seed7) / 2:.3f} [{low:.3f}, {high:.3f}] |"
+        in table
+    )
     assert f"shipped {shipped:.3f} / 0.00, seed7 {seed7:.3f} / 0.00 |" in table  # 150 steps clear no cell
     lines_csv = (tmp_path / "out" / "ablation.csv").read_text().splitlines()
     assert lines_csv[0] == "layout,baseline,policy,episodes,coverage,success,cells_cleared"
     assert [line.split(",")[2] for line in lines_csv[1:]] == ["shipped", str(other)]
-    assert "| a320_cell | 0.3011 / 23.19 | ppo | sequential | 1 | 2 | 2 |" in (tmp_path / "out" / "leaderboard.md").read_text()
+    assert (
+        "| a320_cell | 0.3011 / 23.19 | ppo | sequential | 1 | 2 | 2 |"
+        in (tmp_path / "out" / "leaderboard.md").read_text()
+    )
     assert Image.open(tmp_path / "out" / "figures" / "ablation_coverage.png").size[0] > 500

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import cabinbench
-from baselines.boustrophedon import _cell_region, _reachable, team_plans, team_split
+from cabinbench.baselines.boustrophedon import _cell_region, _reachable, team_plans, team_split
 from cabinbench.episodes import run_episode
 from cabinbench.layout import load_layout
 from cabinbench.run import main as run_main
@@ -22,15 +22,22 @@ def test_two_planners_cover_the_cabin_sooner_than_one(protocol):
     assert trajectory["positions"].shape[1] == 2 and len(team["path_lengths"]) == 2
 
 
-@pytest.mark.parametrize(("layout_name", "n_agents", "protocol"), [
-    ("full_cabin", 4, "sequential"), ("full_cabin", 3, "open"), ("b777_3col", 2, "sequential"),
-])
+@pytest.mark.parametrize(
+    ("layout_name", "n_agents", "protocol"),
+    [
+        ("full_cabin", 4, "sequential"),
+        ("full_cabin", 3, "open"),
+        ("b777_3col", 2, "sequential"),
+    ],
+)
 def test_team_shares_partition_each_stage(layout_name, n_agents, protocol):
     layout = load_layout(layout_name)
     split = team_split(layout, protocol, n_agents)
     assert sorted(split.ranks) == list(range(n_agents))  # every robot has its place in the convoy
     for stage in split.stages:
-        region = _reachable(layout) if stage.cell < 0 else _cell_region(layout, stage.cell) & _reachable(layout)
+        region = (
+            _reachable(layout) if stage.cell < 0 else _cell_region(layout, stage.cell) & _reachable(layout)
+        )
         counts = np.sum(stage.shares, axis=0)
         assert counts.max() == 1 and np.array_equal(counts > 0, region)  # disjoint and complete
         goals = layout.goals if stage.cell < 0 else layout.cells[stage.cell].goals
@@ -45,14 +52,18 @@ def test_team_plans_leave_in_convoy_order():
     layout = load_layout("full_cabin")
     split = team_split(layout, "sequential", 4)
     plans = team_plans(layout, "sequential", 4)
-    gates = {int(split.ranks[agent]): [leg.delay for leg in legs if leg.gate and leg.after_cell == 3]
-             for agent, legs in enumerate(plans)}
+    gates = {
+        int(split.ranks[agent]): [leg.delay for leg in legs if leg.gate and leg.after_cell == 3]
+        for agent, legs in enumerate(plans)
+    }
     delays = [gates[rank][0] for rank in range(4)]
     assert all(later > earlier for earlier, later in zip(delays, delays[1:]))
 
 
 def test_random_bounce_runs_as_a_team_and_records_team_metrics():
-    record, trajectory = run_episode("random_bounce", "a320_cell", 3, "sequential", 2, env_kwargs={"max_steps": 300})
+    record, trajectory = run_episode(
+        "random_bounce", "a320_cell", 3, "sequential", 2, env_kwargs={"max_steps": 300}
+    )
     assert record["n_agents"] == 2 and len(record["path_lengths"]) == 2
     assert 0 < record["makespan"] <= record["time"] and record["load_balance"] >= 1.0
     assert record["robot_collisions"] >= 0 and trajectory["positions"].shape == (record["steps"] + 1, 2, 2)
@@ -64,7 +75,19 @@ def test_too_many_robots_for_the_layout_are_refused():
 
 
 def test_run_cli_refuses_too_many_robots_with_a_message(tmp_path, capsys):
-    status = run_main(["--baseline", "random_bounce", "--layout", "a320_cell", "--agents", "100",
-                       "--episodes", "1", "--out", str(tmp_path)])
+    status = run_main(
+        [
+            "--baseline",
+            "random_bounce",
+            "--layout",
+            "a320_cell",
+            "--agents",
+            "100",
+            "--episodes",
+            "1",
+            "--out",
+            str(tmp_path),
+        ]
+    )
     assert status == 2 and "room for only" in capsys.readouterr().err
     assert not list(tmp_path.iterdir())

@@ -31,7 +31,9 @@ def corridor(success_coverage: float):
     """A 1.2 m × 0.5 m room: two robots side by side, heading along it."""
     return parse_layout(
         "kind: polygons\npolygons:\n  boundary: [[0, 0], [1.2, 0], [1.2, 0.5], [0, 0.5]]\n"
-        f"start: [0.3, 0.25, 0]\nsuccess_coverage: {success_coverage}\n", default_name="corridor")
+        f"start: [0.3, 0.25, 0]\nsuccess_coverage: {success_coverage}\n",
+        default_name="corridor",
+    )
 
 
 def steer_to(pose, target, speed=1.0):
@@ -85,7 +87,9 @@ def rollout(seed: int, actions: np.ndarray):
     observations, infos = env.reset(seed=seed)
     trace = [(observations, infos)]
     for step_actions in actions:
-        observations, rewards, terminations, truncations, infos = env.step(dict(zip(env.agents, step_actions)))
+        observations, rewards, terminations, truncations, infos = env.step(
+            dict(zip(env.agents, step_actions))
+        )
         for info in infos.values():
             info.get("episode_record", {}).pop("wall_time", None)  # real seconds: never reproducible
         trace.append((observations, rewards, terminations, truncations, infos, env.state()))
@@ -116,7 +120,7 @@ def test_robots_start_at_distinct_valid_poses(layout, n_agents):
     tool_width = env.layout.robot.tool_width
     for index, (x, y, _) in enumerate(poses):
         assert env.layout.centre_free[env.layout.to_pixel(x, y)]
-        for other in poses[index + 1:]:
+        for other in poses[index + 1 :]:
             assert math.dist((x, y), other[:2]) >= tool_width
     _, _, _, _, infos = env.step({})  # standing still: nobody touches anything
     assert all(info["collisions"] == info["robot_collisions"] == 0 for info in infos.values())
@@ -140,8 +144,10 @@ def test_robots_see_and_bump_into_each_other():
 
     for _ in range(100):
         poses = {agent: info["pose"] for agent, info in infos.items()}
-        actions = {"robot_0": steer_to(poses["robot_0"], poses["robot_1"]),
-                   "robot_1": steer_to(poses["robot_1"], poses["robot_0"])}
+        actions = {
+            "robot_0": steer_to(poses["robot_0"], poses["robot_1"]),
+            "robot_1": steer_to(poses["robot_1"], poses["robot_0"]),
+        }
         *_, infos = env.step(actions)
         if infos["robot_0"]["robot_collisions"]:
             break
@@ -159,7 +165,9 @@ def test_collisions_are_counted_per_robot():
 
 
 def test_shared_coverage_grows_from_both_robots():
-    one, both = (cabinbench.parallel_env(layout=corridor(0.99), n_agents=2, protocol="open") for _ in range(2))
+    one, both = (
+        cabinbench.parallel_env(layout=corridor(0.99), n_agents=2, protocol="open") for _ in range(2)
+    )
     _, start = one.reset(seed=0)
     both.reset(seed=0)
     for _ in range(6):  # robot_1 drives east; in `both` robot_0 also backs up west
@@ -175,11 +183,15 @@ def test_team_success_terminates_everyone_with_a_record():
     env = cabinbench.parallel_env(layout=corridor(0.5), n_agents=2, protocol="open", reward="coverage")
     env.reset(seed=0)
     for _ in range(20):  # the robots drive apart, each cleaning its half
-        _, rewards, terminations, truncations, infos = env.step({"robot_0": [-1.0, 0.0], "robot_1": [1.0, 0.0]})
+        _, rewards, terminations, truncations, infos = env.step(
+            {"robot_0": [-1.0, 0.0], "robot_1": [1.0, 0.0]}
+        )
         if not env.agents:
             break
     assert all(terminations.values()) and not any(truncations.values())
-    assert rewards.keys() == infos.keys() == set(env.possible_agents)  # the finishing agents get their last step
+    assert (
+        rewards.keys() == infos.keys() == set(env.possible_agents)
+    )  # the finishing agents get their last step
     record = infos["robot_0"]["episode_record"]
     assert record["success"] and record["n_agents"] == 2 and len(record["path_lengths"]) == 2
     assert {"makespan", "load_balance", "robot_collisions"} <= record.keys()
@@ -211,8 +223,11 @@ def test_state_has_the_declared_shape(n_agents):
         *_, infos = env.step({agent: env.action_space(agent).sample() for agent in env.agents})
     xmin, ymin, xmax, ymax = env.layout.extent
     x, y, heading = infos["robot_0"]["pose"]
-    np.testing.assert_allclose(env.state()[:4], [(x - xmin) / (xmax - xmin), (y - ymin) / (ymax - ymin),
-                                                 math.cos(heading), math.sin(heading)], atol=1e-6)
+    np.testing.assert_allclose(
+        env.state()[:4],
+        [(x - xmin) / (xmax - xmin), (y - ymin) / (ymax - ymin), math.cos(heading), math.sin(heading)],
+        atol=1e-6,
+    )
 
 
 def test_rgb_frame_shows_every_robot_in_its_colour():

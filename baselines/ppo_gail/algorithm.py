@@ -25,20 +25,19 @@ from collections.abc import Sequence
 import torch
 import torch.nn as nn
 import torch.nn.functional as F
-from tensordict import TensorDict
-
 from rsl_rl.algorithms import PPO
 from rsl_rl.models import MLPModel
 from rsl_rl.modules import MLP
 from rsl_rl.storage import RolloutStorage
+from tensordict import TensorDict
 
-from baselines.ppo_gail.demonstrations import load_demonstrations
+from cabinbench.baselines.ppo_gail.demonstrations import load_demonstrations
 
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 # Configuration
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 
-ALGORITHM_CLASS_NAME = "baselines.ppo_gail.algorithm:PPOCuriosityGail"
+ALGORITHM_CLASS_NAME = "cabinbench.baselines.ppo_gail.algorithm:PPOCuriosityGail"
 
 ABLATIONS = {
     "ppo": {"use_curiosity": False, "use_gail": False},
@@ -66,9 +65,9 @@ so the rate stays at the study's 3e-4; rsl-rl's default "adaptive" schedule woul
 All reward signals share the one discount ``gamma``: rsl-rl's storage holds a single reward stream."""
 
 
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 # Intrinsic Curiosity Module
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 
 
 class RunningStd(nn.Module):
@@ -95,7 +94,11 @@ class RunningStd(nn.Module):
         batch_var = values.var(unbiased=False)
         total = self.count + batch_count
         delta = batch_mean - self.mean
-        sum_sq = self.var * self.count + batch_var * batch_count + delta.square() * self.count * batch_count / total
+        sum_sq = (
+            self.var * self.count
+            + batch_var * batch_count
+            + delta.square() * self.count * batch_count / total
+        )
         self.mean.copy_(self.mean + delta * batch_count / total)
         self.var.copy_(sum_sq / total)
         self.count.copy_(total)
@@ -165,9 +168,9 @@ class IntrinsicCuriosityModule(nn.Module):
         return surprise / self.surprise_std.std.clamp_min(1e-8) * valid
 
 
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 # GAIL discriminator
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 
 
 class GailDiscriminator(nn.Module):
@@ -181,7 +184,9 @@ class GailDiscriminator(nn.Module):
     penalises the failure.
     """
 
-    def __init__(self, observation_dim: int, action_dim: int, hidden_dims: Sequence[int], activation: str = "elu"):
+    def __init__(
+        self, observation_dim: int, action_dim: int, hidden_dims: Sequence[int], activation: str = "elu"
+    ):
         super().__init__()
         self.network = MLP(observation_dim + action_dim, 1, hidden_dims, activation)
 
@@ -219,9 +224,9 @@ class GailDiscriminator(nn.Module):
         return bce, gradient_penalty, accuracy.detach()
 
 
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 # The algorithm
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 
 
 class PPOCuriosityGail(PPO):
@@ -292,7 +297,9 @@ class PPOCuriosityGail(PPO):
         """
         super().__init__(actor, critic, storage, **ppo_kwargs)
         if self.is_multi_gpu and (use_curiosity or use_gail):
-            raise NotImplementedError("PPOCuriosityGail does not synchronise the ICM and discriminator across GPUs.")
+            raise NotImplementedError(
+                "PPOCuriosityGail does not synchronise the ICM and discriminator across GPUs."
+            )
 
         self.curiosity_strength = curiosity_strength
         self.curiosity_forward_weight = curiosity_forward_weight
@@ -300,7 +307,9 @@ class PPOCuriosityGail(PPO):
         self.gail_gradient_penalty = gail_gradient_penalty
 
         observation_dim = sum(storage.observations[group].shape[-1] for group in self._raw_actor.obs_groups)
-        self.shaping_columns = None if shaping_columns is None else torch.as_tensor(shaping_columns, device=self.device)
+        self.shaping_columns = (
+            None if shaping_columns is None else torch.as_tensor(shaping_columns, device=self.device)
+        )
         shaping_dim = observation_dim if shaping_columns is None else len(shaping_columns)
         action_dim = storage.actions.shape[-1]
         rollout_shape = (storage.num_transitions_per_env, storage.num_envs)
@@ -310,7 +319,9 @@ class PPOCuriosityGail(PPO):
             self.curiosity = IntrinsicCuriosityModule(
                 shaping_dim, action_dim, curiosity_encoding_size, curiosity_hidden_dims
             ).to(self.device)
-            self.curiosity_optimizer = torch.optim.Adam(self.curiosity.parameters(), lr=curiosity_learning_rate)
+            self.curiosity_optimizer = torch.optim.Adam(
+                self.curiosity.parameters(), lr=curiosity_learning_rate
+            )
             # s_t+1 of each stored transition; RolloutStorage keeps only s_t. Allocated here, outside the runner's
             # inference mode, so the buffer can be used for training.
             self.next_states = torch.zeros(*rollout_shape, shaping_dim, device=self.device)
@@ -326,7 +337,9 @@ class PPOCuriosityGail(PPO):
             self.expert_observations = self._shaping_part(expert_observations.to(self.device))
             self.expert_actions = expert_actions.to(self.device)
             self.discriminator = GailDiscriminator(shaping_dim, action_dim, gail_hidden_dims).to(self.device)
-            self.discriminator_optimizer = torch.optim.Adam(self.discriminator.parameters(), lr=gail_learning_rate)
+            self.discriminator_optimizer = torch.optim.Adam(
+                self.discriminator.parameters(), lr=gail_learning_rate
+            )
             self.gail_rewards = torch.zeros(rollout_shape, device=self.device)
 
     # --- Rollout -----------------------------------------------------------------------------------------------------
@@ -343,7 +356,9 @@ class PPOCuriosityGail(PPO):
         step = self.storage.step
         states = self._shaping_observation(self.transition.observations)
         actions = self.transition.actions.clamp(-ACTION_LIMIT, ACTION_LIMIT)
-        shaped_rewards = rewards  # Not modified in place: the runner logs the environment reward after this call.
+        shaped_rewards = (
+            rewards  # Not modified in place: the runner logs the environment reward after this call.
+        )
 
         if self.curiosity is not None:
             next_states = self._shaping_observation(obs)
@@ -364,7 +379,9 @@ class PPOCuriosityGail(PPO):
 
     def compute_returns(self, obs: TensorDict) -> None:
         if self.discriminator is not None:
-            self.storage.rewards -= self.gail_rewards.mean()  # centre the GAIL reward (see the class docstring)
+            self.storage.rewards -= (
+                self.gail_rewards.mean()
+            )  # centre the GAIL reward (see the class docstring)
         super().compute_returns(obs)
 
     # --- Learning ----------------------------------------------------------------------------------------------------
@@ -399,7 +416,9 @@ class PPOCuriosityGail(PPO):
         forward_losses, inverse_losses = [], []
         for _ in range(self.num_learning_epochs):
             for batch in self._mini_batch_indices(states.shape[0]):
-                forward_loss, inverse_loss = self.curiosity.losses(states[batch], actions[batch], next_states[batch])
+                forward_loss, inverse_loss = self.curiosity.losses(
+                    states[batch], actions[batch], next_states[batch]
+                )
                 beta = self.curiosity_forward_weight
                 loss = (1.0 - beta) * inverse_loss + beta * forward_loss
                 self.curiosity_optimizer.zero_grad()
@@ -417,9 +436,14 @@ class PPOCuriosityGail(PPO):
         bce_losses, penalties, accuracies = [], [], []
         for _ in range(self.num_learning_epochs):
             for batch in self._mini_batch_indices(states.shape[0]):
-                expert = torch.randint(self.expert_observations.shape[0], (batch.numel(),), device=self.device)
+                expert = torch.randint(
+                    self.expert_observations.shape[0], (batch.numel(),), device=self.device
+                )
                 bce, gradient_penalty, accuracy = self.discriminator.losses(
-                    states[batch], actions[batch], self.expert_observations[expert], self.expert_actions[expert]
+                    states[batch],
+                    actions[batch],
+                    self.expert_observations[expert],
+                    self.expert_actions[expert],
                 )
                 loss = bce + self.gail_gradient_penalty * gradient_penalty
                 self.discriminator_optimizer.zero_grad()
@@ -483,9 +507,9 @@ def _mean(values: list[float]) -> float:
     return sum(values) / len(values)
 
 
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 # Runner configuration
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 
 
 def make_train_cfg(
@@ -554,6 +578,9 @@ def make_train_cfg(
         "save_interval": save_interval,
         "obs_groups": obs_groups or {"actor": ["policy"], "critic": ["policy"]},
         "algorithm": algorithm,
-        "actor": {**model, "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": init_noise_std}},
+        "actor": {
+            **model,
+            "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": init_noise_std},
+        },
         "critic": model,
     }

@@ -57,7 +57,9 @@ def load_demonstrations(
     if not path_list:
         raise DemonstrationError("No demonstration files given.")
 
-    reference_config = None if expected_observation_config is None else _parse_config(expected_observation_config)
+    reference_config = (
+        None if expected_observation_config is None else _parse_config(expected_observation_config)
+    )
     observations, actions = [], []
     for path in path_list:
         file_observations, file_actions, file_config = _load_file(path, observation_dim, action_dim)
@@ -75,7 +77,9 @@ def load_demonstrations(
     return torch.from_numpy(np.concatenate(observations)), torch.from_numpy(np.concatenate(actions))
 
 
-def _load_file(path: str | os.PathLike, observation_dim: int, action_dim: int) -> tuple[np.ndarray, np.ndarray, object]:
+def _load_file(
+    path: str | os.PathLike, observation_dim: int, action_dim: int
+) -> tuple[np.ndarray, np.ndarray, object]:
     """Read one file and check it against the schema and the environment's dimensions."""
     if not os.path.isfile(path):
         raise DemonstrationError(f"{path}: demonstration file not found.")
@@ -125,7 +129,9 @@ def _load_file(path: str | os.PathLike, observation_dim: int, action_dim: int) -
             )
     largest_action = float(np.abs(actions).max())
     if largest_action > 1.0 + ACTION_BOUND_TOLERANCE:
-        raise DemonstrationError(f"{path}: actions must lie in [-1, 1], found magnitude {largest_action:.4g}.")
+        raise DemonstrationError(
+            f"{path}: actions must lie in [-1, 1], found magnitude {largest_action:.4g}."
+        )
 
     if config_array.ndim != 0 or config_array.dtype.kind not in "US":
         raise DemonstrationError(

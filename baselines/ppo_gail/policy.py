@@ -38,15 +38,24 @@ import numpy as np
 import torch
 import torch.nn as nn
 
-from baselines.base import Baseline, EpisodeContext
+from cabinbench.agents import Baseline, EpisodeContext
 
 FORMAT = "cabinbench-policy/1"
 CHECKPOINT_DIR = Path(__file__).resolve().parent / "checkpoints"
 
 ACTIVATIONS = {
     # rsl-rl's activation names (rsl_rl.utils.resolve_nn_activation)
-    "elu": nn.ELU, "selu": nn.SELU, "relu": nn.ReLU, "crelu": nn.CELU, "lrelu": nn.LeakyReLU, "tanh": nn.Tanh,
-    "sigmoid": nn.Sigmoid, "softplus": nn.Softplus, "gelu": nn.GELU, "swish": nn.SiLU, "mish": nn.Mish,
+    "elu": nn.ELU,
+    "selu": nn.SELU,
+    "relu": nn.ReLU,
+    "crelu": nn.CELU,
+    "lrelu": nn.LeakyReLU,
+    "tanh": nn.Tanh,
+    "sigmoid": nn.Sigmoid,
+    "softplus": nn.Softplus,
+    "gelu": nn.GELU,
+    "swish": nn.SiLU,
+    "mish": nn.Mish,
     "identity": nn.Identity,
 }
 
@@ -62,8 +71,14 @@ class Actor(nn.Module):
     like rsl-rl's ``MLP`` (Linear, activation, Linear, ..., Linear), so rsl-rl's state dict loads as it is.
     """
 
-    def __init__(self, observation_size: int, action_size: int, hidden_dims, activation: str = "elu",
-                 normalizer: dict | None = None) -> None:
+    def __init__(
+        self,
+        observation_size: int,
+        action_size: int,
+        hidden_dims,
+        activation: str = "elu",
+        normalizer: dict | None = None,
+    ) -> None:
         super().__init__()
         if activation not in ACTIVATIONS:
             raise ValueError(f"unknown activation {activation!r}; known: {', '.join(ACTIVATIONS)}")
@@ -88,20 +103,30 @@ class Actor(nn.Module):
         return self.mlp(observations)
 
 
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 # Export (called by training) and loading
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 
 
-def export_policy(runner, path: str | os.PathLike, *, ablation: str, observation_config: dict, env_config: dict,
-                  training: dict) -> Path:
+def export_policy(
+    runner,
+    path: str | os.PathLike,
+    *,
+    ablation: str,
+    observation_config: dict,
+    env_config: dict,
+    training: dict,
+) -> Path:
     """Write the policy file of an rsl-rl ``OnPolicyRunner``'s actor (atomically). Returns the path."""
     model = runner.alg.get_policy()
     normalizer = None
     if model.obs_normalization:
         stats = model.obs_normalizer
-        normalizer = {"mean": stats.mean.detach().cpu().clone(), "std": stats.std.detach().cpu().clone(),
-                      "eps": float(stats.eps)}
+        normalizer = {
+            "mean": stats.mean.detach().cpu().clone(),
+            "std": stats.std.detach().cpu().clone(),
+            "eps": float(stats.eps),
+        }
     actor_cfg = runner.cfg["actor"]
     linear_layers = [module for module in model.mlp if isinstance(module, nn.Linear)]
     exported = {
@@ -112,7 +137,9 @@ def export_policy(runner, path: str | os.PathLike, *, ablation: str, observation
             "activation": actor_cfg.get("activation", "elu"),
             "observation_size": int(model.obs_dim),
             "action_size": int(linear_layers[-1].out_features),
-            "state_dict": {key: value.detach().cpu().clone() for key, value in model.mlp.state_dict().items()},
+            "state_dict": {
+                key: value.detach().cpu().clone() for key, value in model.mlp.state_dict().items()
+            },
         },
         "obs_normalizer": normalizer,
         "action_std": _action_std(model),
@@ -150,26 +177,39 @@ def read_policy_file(path: str | os.PathLike) -> dict:
     """Load and validate a policy file; every problem raises ``PolicyFileError`` naming the file."""
     path = Path(path)
     if not path.is_file():
-        raise PolicyFileError(f"{path}: policy file not found. Train and ship one with "
-                              f"`python -m cabinbench.train --baseline <name> --ship`, or pass "
-                              f"--config '{{\"checkpoint\": \"runs/train/<run>/policy.pt\"}}'.")
+        raise PolicyFileError(
+            f"{path}: policy file not found. Train and ship one with "
+            f"`python -m cabinbench.train --baseline <name> --ship`, or pass "
+            f'--config \'{{"checkpoint": "runs/train/<run>/policy.pt"}}\'.'
+        )
     try:
         data = torch.load(path, weights_only=True, map_location="cpu")
     except Exception as error:  # torch raises a variety of types for truncated or foreign files
-        raise PolicyFileError(f"{path}: cannot read the policy file ({type(error).__name__}: {error}). "
-                              "It may be corrupted or not a torch file.") from None
+        raise PolicyFileError(
+            f"{path}: cannot read the policy file ({type(error).__name__}: {error}). "
+            "It may be corrupted or not a torch file."
+        ) from None
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         hint = ""
         if isinstance(data, dict) and "actor_state_dict" in data:
-            hint = (" It looks like a full rsl-rl training checkpoint; training exports the shippable policy as "
-                    "policy.pt next to checkpoints/.")
+            hint = (
+                " It looks like a full rsl-rl training checkpoint; training exports the shippable policy as "
+                "policy.pt next to checkpoints/."
+            )
         raise PolicyFileError(f"{path}: not a cabinbench policy file (expected format {FORMAT!r}).{hint}")
     try:
         actor = data["actor"]
-        network = Actor(actor["observation_size"], actor["action_size"], actor["hidden_dims"], actor["activation"],
-                        data["obs_normalizer"])
+        network = Actor(
+            actor["observation_size"],
+            actor["action_size"],
+            actor["hidden_dims"],
+            actor["activation"],
+            data["obs_normalizer"],
+        )
         network.mlp.load_state_dict(actor["state_dict"], strict=True)
-        data["action_std"] = torch.as_tensor(data["action_std"], dtype=torch.float32).reshape(actor["action_size"])
+        data["action_std"] = torch.as_tensor(data["action_std"], dtype=torch.float32).reshape(
+            actor["action_size"]
+        )
         for key in ("ablation", "observation_config"):
             data[key]  # noqa: B018 - presence check
     except (KeyError, TypeError, ValueError, RuntimeError) as error:
@@ -197,14 +237,16 @@ def check_observation_config(trained: dict, env: dict, path: str | os.PathLike) 
     different = [key for key in sorted(set(trained) | set(env)) if not _same(trained.get(key), env.get(key))]
     if different:
         details = ", ".join(f"{key}: trained {trained.get(key)!r}, env {env.get(key)!r}" for key in different)
-        raise PolicyFileError(f"{path}: the policy was trained on another observation layout ({details}). "
-                              "Run the env with the observation settings the policy was trained with (its "
-                              "env_options), or retrain.")
+        raise PolicyFileError(
+            f"{path}: the policy was trained on another observation layout ({details}). "
+            "Run the env with the observation settings the policy was trained with (its "
+            "env_options), or retrain."
+        )
 
 
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 # The baselines
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 
 
 class LearnedPolicy(Baseline):
@@ -212,9 +254,12 @@ class LearnedPolicy(Baseline):
     ``stochastic`` (sample actions from the trained Gaussian policy; default True; False takes its mean)."""
 
     name = "learned_policy"
+    trainer = "cabinbench.baselines.ppo_gail.cli:main"
     ablation = ""
 
-    def __init__(self, checkpoint: str | os.PathLike | None = None, stochastic: bool = True, **config) -> None:
+    def __init__(
+        self, checkpoint: str | os.PathLike | None = None, stochastic: bool = True, **config
+    ) -> None:
         if config:
             raise TypeError(f"{self.name} takes only `checkpoint` and `stochastic`, not {sorted(config)}")
         settings = {"checkpoint": str(checkpoint)} if checkpoint is not None else {}
@@ -224,8 +269,10 @@ class LearnedPolicy(Baseline):
         self.stochastic = bool(stochastic)
         self.policy = load_policy(self.path)
         if self.policy["ablation"] != self.ablation:
-            raise PolicyFileError(f"{self.path}: holds a {self.policy['ablation']!r} policy, not {self.ablation!r}; "
-                                  f"run it as --baseline {self.policy['ablation']}")
+            raise PolicyFileError(
+                f"{self.path}: holds a {self.policy['ablation']!r} policy, not {self.ablation!r}; "
+                f"run it as --baseline {self.policy['ablation']}"
+            )
         self.rng: np.random.Generator | None = None
 
     @property
@@ -279,7 +326,7 @@ class PPOGailOnly(LearnedPolicy):
     name = ablation = "ppo_gail_only"
 
 
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 
 
 def _plain(value):
@@ -297,5 +344,7 @@ def _plain(value):
 
 def _same(a, b) -> bool:
     if isinstance(a, float) or isinstance(b, float):
-        return a is not None and b is not None and math.isclose(float(a), float(b), rel_tol=1e-9, abs_tol=1e-12)
+        return (
+            a is not None and b is not None and math.isclose(float(a), float(b), rel_tol=1e-9, abs_tol=1e-12)
+        )
     return a == b

@@ -60,12 +60,13 @@ os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl's logger imports 
 import numpy as np
 import torch
 
-from baselines.ppo_gail.algorithm import ABLATIONS, make_train_cfg
-from baselines.ppo_gail.policy import atomic_torch_save
+from cabinbench.baselines.ppo_gail.algorithm import ABLATIONS, make_train_cfg
+from cabinbench.baselines.ppo_gail.policy import atomic_torch_save
+from cabinbench.training_records import best_checkpoint, plot_curves, read_metrics
 
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 # 1. Configuration
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 
 
 @dataclass
@@ -223,7 +224,9 @@ class TrainConfig:
         if self.export not in ("last", "best"):
             raise ValueError(f'export must be "last" or "best", got {self.export!r}')
         if self.export == "best" and not self.validation_episodes:
-            raise ValueError('export="best" chooses on the validation episodes: validation_episodes must be positive')
+            raise ValueError(
+                'export="best" chooses on the validation episodes: validation_episodes must be positive'
+            )
         if self.uses_gail and not self.demonstrations and self.demo_episodes < 1:
             raise ValueError(f"{self.ablation} learns from demonstrations: demo_episodes must be positive")
 
@@ -234,15 +237,25 @@ class TrainConfig:
     @property
     def env_kwargs(self) -> dict:
         """Keyword arguments of every training env (``CoverageEnv``)."""
-        return {"reward": self.reward, "terminate_on_bound": self.terminate_on_bound, "max_steps": self.max_steps,
-                "random_start": self.random_start, "coverage_patch": self.coverage_patch,
-                "coverage_patch_cell": self.coverage_patch_cell}
+        return {
+            "reward": self.reward,
+            "terminate_on_bound": self.terminate_on_bound,
+            "max_steps": self.max_steps,
+            "random_start": self.random_start,
+            "coverage_patch": self.coverage_patch,
+            "coverage_patch_cell": self.coverage_patch_cell,
+        }
 
     def to_dict(self) -> dict:
-        return dataclasses.asdict(self)
+        """Every field, and the reward signals of the ablation (``use_curiosity``, ``use_gail``): the leaderboard
+        reads those from ``config.json`` (``cabinbench.training_records``) without importing this baseline."""
+        return {**dataclasses.asdict(self), **ABLATIONS[self.ablation]}
 
     @classmethod
     def from_dict(cls, values: dict) -> TrainConfig:
+        values = {
+            key: value for key, value in values.items() if key not in ABLATIONS[values.get("ablation", "ppo")]
+        }
         known = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(values) - known)
         if unknown:
@@ -264,9 +277,9 @@ def default_run_dir(config: TrainConfig, root: str | os.PathLike = "runs/train")
     return Path(root) / f"{config.ablation}__seed{config.seed}"
 
 
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 # 2. Per-iteration metrics: the runner's logger interface, written to metrics.csv
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 
 EPISODE_METRICS = ("coverage", "success", "cells_cleared", "collisions", "bound_violations")
 LOSSES = {
@@ -282,8 +295,17 @@ LOSSES = {
     "entropy": "entropy",
 }
 METRIC_COLUMNS = (
-    "iteration", "timesteps", "train_time", "iteration_time", "episodes", "episode_reward", "episode_length",
-    *EPISODE_METRICS, *LOSSES, "action_std", "learning_rate",
+    "iteration",
+    "timesteps",
+    "train_time",
+    "iteration_time",
+    "episodes",
+    "episode_reward",
+    "episode_length",
+    *EPISODE_METRICS,
+    *LOSSES,
+    "action_std",
+    "learning_rate",
 )
 """``metrics.csv`` columns. Episode columns average the episodes that ended during the iteration (empty when none
 did); ``episode_reward`` is the environment reward (without the curiosity and GAIL bonuses, so ablations compare);
@@ -362,7 +384,11 @@ class MetricsFile:
         """Open ``path``, keeping only rows of iterations ``<= keep_until`` (the checkpoint a run resumes from:
         later rows belong to iterations that are trained again)."""
         self.path = path
-        rows = [row for row in read_metrics(path) if int(row["iteration"]) <= keep_until] if path.exists() else []
+        rows = (
+            [row for row in read_metrics(path) if int(row["iteration"]) <= keep_until]
+            if path.exists()
+            else []
+        )
         temporary = path.with_suffix(".csv.tmp")
         with open(temporary, "w", newline="") as file:
             writer = csv.DictWriter(file, METRIC_COLUMNS)
@@ -380,15 +406,9 @@ class MetricsFile:
         self.file.close()
 
 
-def read_metrics(path: str | os.PathLike) -> list[dict]:
-    """Rows of a ``metrics.csv`` as dicts of strings (empty string: no value)."""
-    with open(path, newline="") as file:
-        return list(csv.DictReader(file))
-
-
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 # 3. Checkpoints
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 
 
 def checkpoint_path(run_dir: Path, iteration: int) -> Path:
@@ -420,9 +440,9 @@ def load_checkpoint(runner, path: Path) -> dict:
     return state
 
 
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 # 4. The training loop
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 
 
 @dataclass
@@ -435,8 +455,9 @@ class TrainResult:
     interrupted: bool = False
 
 
-def train(config: TrainConfig, run_dir: str | os.PathLike | None = None, resume: bool = False,
-          progress: bool = True) -> TrainResult:
+def train(
+    config: TrainConfig, run_dir: str | os.PathLike | None = None, resume: bool = False, progress: bool = True
+) -> TrainResult:
     """Train (or, with ``resume``, continue training) the policy of ``config`` in ``run_dir``.
 
     Without ``resume`` the run directory must not hold checkpoints yet. With ``resume`` the saved ``config.json``
@@ -445,7 +466,7 @@ def train(config: TrainConfig, run_dir: str | os.PathLike | None = None, resume:
     """
     from rsl_rl.runners import OnPolicyRunner
 
-    from baselines.ppo_gail.policy import export_policy
+    from cabinbench.baselines.ppo_gail.policy import export_policy
     from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
 
     run_dir = Path(run_dir) if run_dir is not None else default_run_dir(config)
@@ -466,7 +487,8 @@ def train(config: TrainConfig, run_dir: str | os.PathLike | None = None, resume:
         expected_observation_config=obs_config,
         # the ICM and the discriminator see lidar and velocity, never the coverage patch (see PPOCuriosityGail)
         shaping_columns=np.delete(np.arange(world.observation_size), world.patch_columns).tolist()
-        if config.coverage_patch else None,
+        if config.coverage_patch
+        else None,
         num_steps_per_env=config.num_steps_per_env,
         hidden_dims=config.hidden_dims,
         activation=config.activation,
@@ -511,8 +533,14 @@ def train(config: TrainConfig, run_dir: str | os.PathLike | None = None, resume:
     summary = training_summary(rows, config, train_time)
 
     def export(path: Path, training: dict) -> Path:
-        return export_policy(runner, path, ablation=config.ablation, observation_config=obs_config,
-                             env_config={"layouts": config.layouts, **config.env_kwargs}, training=training)
+        return export_policy(
+            runner,
+            path,
+            ablation=config.ablation,
+            observation_config=obs_config,
+            env_config={"layouts": config.layouts, **config.env_kwargs},
+            training=training,
+        )
 
     if not interrupted and config.validation_episodes:
         try:
@@ -521,13 +549,20 @@ def train(config: TrainConfig, run_dir: str | os.PathLike | None = None, resume:
             interrupted = True
     validation = read_validation(run_dir, config)
     if rows:
-        plot_curves(rows, run_dir / CURVES_FILE, title=f"{config.ablation} on {' + '.join(config.layouts)}",
-                    validation=validation)
+        plot_curves(
+            rows,
+            run_dir / CURVES_FILE,
+            title=f"{config.ablation} on {' + '.join(config.layouts)}",
+            validation=validation,
+        )
     if interrupted:
         last = latest_checkpoint(run_dir)
-        print(f"interrupted at iteration {iteration}: checkpoints kept up to {last.name if last else 'none'}"
-              f"{' (all trained; validating them)' if iteration >= config.iterations else ''}; "
-              f"continue with --resume --run-dir {run_dir}", file=sys.stderr)
+        print(
+            f"interrupted at iteration {iteration}: checkpoints kept up to {last.name if last else 'none'}"
+            f"{' (all trained; validating them)' if iteration >= config.iterations else ''}; "
+            f"continue with --resume --run-dir {run_dir}",
+            file=sys.stderr,
+        )
         return TrainResult(run_dir, None, iteration, train_time, summary, interrupted=True)
 
     exported = best_checkpoint(validation)[0] if config.export == "best" else iteration
@@ -543,16 +578,25 @@ def prepare_run_dir(config: TrainConfig, run_dir: Path, resume: bool) -> Path | 
     checkpoint = latest_checkpoint(run_dir)
     if not resume:
         if checkpoint is not None:
-            raise FileExistsError(f"{run_dir} already holds checkpoints (latest {checkpoint.name}); "
-                                  "resume it (--resume) or choose another --run-dir")
+            raise FileExistsError(
+                f"{run_dir} already holds checkpoints (latest {checkpoint.name}); "
+                "resume it (--resume) or choose another --run-dir"
+            )
     elif saved_config_path.exists():
         # through TrainConfig: a field added since the run started takes its default, as the resumed run does
-        saved = json.loads(json.dumps(TrainConfig.from_dict(json.loads(saved_config_path.read_text())).to_dict()))
-        differences = sorted(key for key, value in config.to_dict().items()
-                             if key not in RESUMABLE_CHANGES and saved.get(key) != json.loads(json.dumps(value)))
+        saved = json.loads(
+            json.dumps(TrainConfig.from_dict(json.loads(saved_config_path.read_text())).to_dict())
+        )
+        differences = sorted(
+            key
+            for key, value in config.to_dict().items()
+            if key not in RESUMABLE_CHANGES and saved.get(key) != json.loads(json.dumps(value))
+        )
         if differences:
-            raise ValueError(f"cannot resume {run_dir}: the config differs from the saved one in {differences}; "
-                             f"only {list(RESUMABLE_CHANGES)} may change")
+            raise ValueError(
+                f"cannot resume {run_dir}: the config differs from the saved one in {differences}; "
+                f"only {list(RESUMABLE_CHANGES)} may change"
+            )
     (run_dir / CHECKPOINT_DIR).mkdir(parents=True, exist_ok=True)
     temporary = saved_config_path.with_suffix(".json.tmp")
     temporary.write_text(json.dumps(config.to_dict(), indent=2) + "\n")
@@ -563,7 +607,7 @@ def prepare_run_dir(config: TrainConfig, run_dir: Path, resume: bool) -> Path | 
 def expert_demonstrations(config: TrainConfig, run_dir: Path) -> list[str]:
     """The given ``.npz`` files, or boustrophedon demonstrations of every training layout recorded into
     ``run_dir/demos`` (kept, so a resumed run imitates the same data)."""
-    from baselines.boustrophedon import record_demonstrations
+    from cabinbench.baselines.boustrophedon import record_demonstrations
 
     if config.demonstrations:
         return [str(path) for path in config.demonstrations]
@@ -574,10 +618,19 @@ def expert_demonstrations(config: TrainConfig, run_dir: Path) -> list[str]:
         path = folder / f"{Path(layout).stem}.npz"
         if not path.exists():
             temporary = folder / f"{Path(layout).stem}.tmp.npz"
-            env_kwargs = {**config.env_kwargs, "max_steps": config.demo_max_steps or config.max_steps,
-                          "random_start": False}
-            record_demonstrations(layout, config.demo_episodes, str(temporary), seed=config.seed,
-                                  action_noise=config.demo_action_noise, **env_kwargs)
+            env_kwargs = {
+                **config.env_kwargs,
+                "max_steps": config.demo_max_steps or config.max_steps,
+                "random_start": False,
+            }
+            record_demonstrations(
+                layout,
+                config.demo_episodes,
+                str(temporary),
+                seed=config.seed,
+                action_noise=config.demo_action_noise,
+                **env_kwargs,
+            )
             os.replace(temporary, path)
         paths.append(str(path))
     return paths
@@ -607,8 +660,15 @@ def training_summary(rows: list[dict], config: TrainConfig, train_time: float, w
 def _progress_bar(config: TrainConfig, start: int, enabled: bool):
     from tqdm import tqdm
 
-    return tqdm(total=config.iterations, initial=start, unit="it", desc=config.ablation, file=sys.stderr,
-                dynamic_ncols=True, disable=not enabled)
+    return tqdm(
+        total=config.iterations,
+        initial=start,
+        unit="it",
+        desc=config.ablation,
+        file=sys.stderr,
+        dynamic_ncols=True,
+        disable=not enabled,
+    )
 
 
 def _postfix(row: dict) -> dict:
@@ -619,9 +679,9 @@ def _postfix(row: dict) -> dict:
     return shown
 
 
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 # 5. Validation of every checkpoint on the training layouts
-# ---------------------------------------------------------------------------------------------------------------------
+# ----------------------------------------------------------------------------------------------------
 
 VALIDATION_SEED = 1_000_000
 """Validation episode ``i`` uses seed ``VALIDATION_SEED + i``: not a seed the leaderboard plays (0-403,
@@ -629,22 +689,6 @@ VALIDATION_SEED = 1_000_000
 scored on."""
 VALIDATION_COLUMNS = ("iteration", "layout", "episodes", "coverage", "success", "cells_cleared", "time")
 """``validation.csv``: one row per checkpoint and training layout, the means over its validation episodes."""
-
-
-def validation_score(rows: list[dict]) -> float:
-    """A checkpoint's validation score: success rate + coverage, averaged over the training layouts. Both, because an
-    episode ends at success: a policy that never finishes may cover more by wandering until the step limit, and one
-    that finishes early may leave floor uncleaned."""
-    return float(np.mean([float(row["success"]) + float(row["coverage"]) for row in rows]))
-
-
-def best_checkpoint(validation: list[dict]) -> tuple[int, float]:
-    """(iteration, score) of the checkpoint with the best ``validation_score`` in ``validation.csv``'s rows (the later
-    one on a tie)."""
-    scores = {iteration: validation_score([row for row in validation if int(row["iteration"]) == iteration])
-              for iteration in {int(row["iteration"]) for row in validation}}
-    best = max(scores, key=lambda iteration: (scores[iteration], iteration))
-    return best, scores[best]
 
 
 def read_validation(run_dir: Path, config: TrainConfig) -> list[dict]:
@@ -681,78 +725,28 @@ def validate_checkpoints(runner, config: TrainConfig, run_dir: Path, export) -> 
             policy = export(run_dir / VALIDATION_DIR / f"policy_{iteration:06d}.pt")
             measured = []
             for name, layout in layouts.items():
-                records = [run_episode(config.ablation, layout, VALIDATION_SEED + episode, env_kwargs=env_kwargs,
-                                       config={"checkpoint": str(policy)})[0]
-                           for episode in range(config.validation_episodes)]
-                measured.append({"iteration": iteration, "layout": name, "episodes": len(records),
-                                 **{metric: float(np.mean([record[metric] for record in records]))
-                                    for metric in VALIDATION_COLUMNS[3:]}})
-            writer.writerows(measured)  # a checkpoint's rows together: an interruption never leaves half of them
+                records = [
+                    run_episode(
+                        config.ablation,
+                        layout,
+                        VALIDATION_SEED + episode,
+                        env_kwargs=env_kwargs,
+                        config={"checkpoint": str(policy)},
+                    )[0]
+                    for episode in range(config.validation_episodes)
+                ]
+                measured.append(
+                    {
+                        "iteration": iteration,
+                        "layout": name,
+                        "episodes": len(records),
+                        **{
+                            metric: float(np.mean([record[metric] for record in records]))
+                            for metric in VALIDATION_COLUMNS[3:]
+                        },
+                    }
+                )
+            writer.writerows(
+                measured
+            )  # a checkpoint's rows together: an interruption never leaves half of them
             file.flush()
-
-
-# ---------------------------------------------------------------------------------------------------------------------
-# 6. Training curves (the seed's Fig. 5.8)
-# ---------------------------------------------------------------------------------------------------------------------
-
-CURVE_PANELS = (
-    ("episode_reward", "(a) Cumulative reward"),
-    ("gail_discriminator", "(b) GAIL loss"),
-    ("curiosity_forward", "(c) Curiosity forward loss"),
-    ("curiosity_inverse", "(d) Curiosity inverse loss"),
-    ("policy_loss", "(e) Policy loss"),
-    ("value_loss", "(f) Value loss"),
-)
-
-
-def plot_curves(rows: list[dict], path: str | os.PathLike, title: str = "", smoothing: int = 10,
-                validation: list[dict] | None = None) -> None:
-    """2 x 3 panels like the seed's Fig. 5.8: the raw value per iteration (light) and a running mean (dark).
-    Panels of modules the ablation does not use say so. With ``validation`` (``validation.csv``'s rows) a seventh
-    panel shows each checkpoint's validation coverage and success and marks the best one. The same rows give a
-    byte-identical PNG."""
-    from matplotlib.figure import Figure  # no pyplot: no window, no global state
-
-    figure = Figure(figsize=(17, 7) if validation else (13, 7))
-    axes = figure.subplots(2, 4 if validation else 3)
-    if validation:
-        _plot_validation(axes[0, 3], validation)
-        axes[1, 3].set_axis_off()
-    for axis, (column, label) in zip(axes[:, :3].flat, CURVE_PANELS):
-        points = [(int(row["iteration"]), float(row[column])) for row in rows if row[column] not in ("", None)]
-        axis.set_title(label, fontsize=10)
-        axis.set_xlabel("iteration")
-        axis.grid(alpha=0.3)
-        if not points:
-            axis.text(0.5, 0.5, "not used by this ablation", ha="center", va="center", transform=axis.transAxes,
-                      color="grey")
-            axis.set_xticks([])
-            axis.set_yticks([])
-            continue
-        x, y = np.array(points).T
-        axis.plot(x, y, color="tab:blue", alpha=0.25, linewidth=0.8)
-        window = min(smoothing, len(y))
-        smooth = np.convolve(y, np.ones(window) / window, mode="valid")
-        axis.plot(x[window - 1:], smooth, color="tab:blue", linewidth=1.5)
-    if title:
-        figure.suptitle(title)
-    figure.tight_layout()
-    temporary = Path(path).with_name(Path(path).stem + ".tmp.png")
-    figure.savefig(temporary, dpi=100, metadata={"Software": None})  # no matplotlib version in committed figures
-    os.replace(temporary, path)
-
-
-def _plot_validation(axis, validation: list[dict]) -> None:
-    """Mean validation coverage and success rate over the training layouts per checkpoint; the best one marked."""
-    iterations = sorted({int(row["iteration"]) for row in validation})
-    for metric, colour in (("coverage", "tab:green"), ("success", "tab:orange")):
-        means = [np.mean([float(row[metric]) for row in validation if int(row["iteration"]) == iteration])
-                 for iteration in iterations]
-        axis.plot(iterations, means, marker="o", markersize=3, color=colour, label=metric)
-    best, _ = best_checkpoint(validation)
-    axis.axvline(best, color="grey", linestyle="--", linewidth=1, label=f"best ({best})")
-    axis.set_title("(g) Validation: training cells, other seeds", fontsize=10)
-    axis.set_xlabel("iteration")
-    axis.set_ylim(-0.02, 1.02)
-    axis.grid(alpha=0.3)
-    axis.legend(fontsize=8)

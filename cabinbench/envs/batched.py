@@ -21,7 +21,6 @@ from tensordict import TensorDict
 
 from .coverage_env import CoverageEnv, checked_action
 
-
 _CONTEXT = multiprocessing.get_context("spawn")  # no fork of torch's threads
 SPIN_SECONDS = 0.002
 """How long a process polls a pipe before it blocks on it, where the main process and the workers wait for each other
@@ -46,7 +45,9 @@ class BatchArrays:
     shard reads its actions and writes its results in place, so a step sends a worker only a
     signal and gets back only the episodes that ended."""
 
-    def __init__(self, num_envs: int, observation_size: int, shared: bool = False, blocks: dict | None = None):
+    def __init__(
+        self, num_envs: int, observation_size: int, shared: bool = False, blocks: dict | None = None
+    ):
         self.num_envs, self.observation_size, self.shared = num_envs, observation_size, shared
         fields = {
             "actions": ((num_envs, 2), np.float64),
@@ -56,8 +57,14 @@ class BatchArrays:
             "truncated": ((num_envs,), np.bool_),
         }
         if blocks is None:
-            sizes = {name: int(np.prod(shape)) * np.dtype(dtype).itemsize for name, (shape, dtype) in fields.items()}
-            blocks = {name: _CONTEXT.RawArray("b", size) if shared else bytearray(size) for name, size in sizes.items()}
+            sizes = {
+                name: int(np.prod(shape)) * np.dtype(dtype).itemsize
+                for name, (shape, dtype) in fields.items()
+            }
+            blocks = {
+                name: _CONTEXT.RawArray("b", size) if shared else bytearray(size)
+                for name, size in sizes.items()
+            }
         self.blocks = blocks
         for name, (shape, dtype) in fields.items():
             setattr(self, name, np.frombuffer(blocks[name], dtype).reshape(shape))
@@ -72,7 +79,9 @@ class EnvShard:
     """A run of consecutive envs (global indices ``first`` ...) stepped in a loop, on their rows
     of ``batch``."""
 
-    def __init__(self, layouts: list, first: int, count: int, seed: int, env_kwargs: dict, batch: BatchArrays):
+    def __init__(
+        self, layouts: list, first: int, count: int, seed: int, env_kwargs: dict, batch: BatchArrays
+    ):
         self.first = first
         rows = slice(first, first + count)
         self.actions = batch.actions[rows, None]  # (count, 1, 2): each env's (K, 2) actions, K = 1
@@ -121,7 +130,9 @@ class BatchedCoverageEnv:
     Env ``i`` is seeded ``seed + i`` however the batch is split: results do not depend on it.
     Call :meth:`close` (or use ``with``) to stop the workers."""
 
-    def __init__(self, layout="a320_cell", num_envs: int = 64, seed: int = 0, num_workers: int = 1, **env_kwargs):
+    def __init__(
+        self, layout="a320_cell", num_envs: int = 64, seed: int = 0, num_workers: int = 1, **env_kwargs
+    ):
         requested = list(layout) if isinstance(layout, (list, tuple)) else [layout]
         examples = [CoverageEnv(name, **env_kwargs) for name in requested]  # spaces and settings, for callers
         self.example_env = examples[0]
@@ -130,11 +141,16 @@ class BatchedCoverageEnv:
         self.layout_names = sorted({example.layout.name for example in examples})
         self.max_steps_per_env = [examples[index % len(examples)].max_steps for index in range(num_envs)]
         self.observation_size = self.example_env.observation_space.shape[0]
-        layouts = [example.layout for example in examples]  # parsed once, shared by the envs (which only read them)
+        layouts = [
+            example.layout for example in examples
+        ]  # parsed once, shared by the envs (which only read them)
         bounds = np.linspace(0, num_envs, max(1, min(num_workers, num_envs)) + 1).astype(int)
         self.batch = BatchArrays(num_envs, self.observation_size, shared=len(bounds) > 2)
         self.observations = self.batch.observations
-        shards = [(layouts, int(first), int(last - first), seed, env_kwargs, self.batch) for first, last in zip(bounds, bounds[1:])]
+        shards = [
+            (layouts, int(first), int(last - first), seed, env_kwargs, self.batch)
+            for first, last in zip(bounds, bounds[1:])
+        ]
         self.workers = []
         for arguments in shards[1:]:
             parent, child = _CONTEXT.Pipe()
@@ -146,7 +162,9 @@ class BatchedCoverageEnv:
             parent.recv()
 
     def step(self, actions: torch.Tensor):
-        actions = checked_action(np.asarray(actions.detach().cpu() if isinstance(actions, torch.Tensor) else actions))
+        actions = checked_action(
+            np.asarray(actions.detach().cpu() if isinstance(actions, torch.Tensor) else actions)
+        )
         if len(actions) != self.num_envs:
             raise ValueError(f"expected {self.num_envs} actions, got {len(actions)}")
         batch = self.batch
@@ -159,8 +177,13 @@ class BatchedCoverageEnv:
             replies = [_receive(parent) for parent, _ in self.workers]
         finished += [item for reply in replies for item in reply]
         # copies: callers keep the tensors of earlier steps
-        return (torch.from_numpy(batch.observations.copy()), torch.from_numpy(batch.rewards.copy()),
-                torch.from_numpy(batch.terminated.copy()), torch.from_numpy(batch.truncated.copy()), finished)
+        return (
+            torch.from_numpy(batch.observations.copy()),
+            torch.from_numpy(batch.rewards.copy()),
+            torch.from_numpy(batch.terminated.copy()),
+            torch.from_numpy(batch.truncated.copy()),
+            finished,
+        )
 
     def close(self) -> None:
         for parent, process in self.workers:
@@ -203,5 +226,12 @@ class RslRlVecEnv(VecEnv):
         extras = {"time_outs": truncated.clone(), "log": {}}
         if finished:
             records = [record for _, record in finished]
-            extras["log"] = {f"/episode/{name}": float(np.mean([r[name] for r in records])) for name in self.LOGGED}
-        return TensorDict({"policy": observations}, batch_size=[self.num_envs]), rewards, dones.to(torch.long), extras
+            extras["log"] = {
+                f"/episode/{name}": float(np.mean([r[name] for r in records])) for name in self.LOGGED
+            }
+        return (
+            TensorDict({"policy": observations}, batch_size=[self.num_envs]),
+            rewards,
+            dones.to(torch.long),
+            extras,
+        )

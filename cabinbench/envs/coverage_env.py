@@ -62,7 +62,6 @@ from ..render import EnvRenderer
 from ..rewards import REWARD_PRESETS, reward
 from ..world import World, start_cell_spots
 
-
 OBSERVATION_SETTINGS = ("n_rays", "lidar_range", "field_of_view", "coverage_patch", "coverage_patch_cell")
 """The arguments (of this env and the team env) that shape the observation."""
 
@@ -70,8 +69,13 @@ OBSERVATION_SETTINGS = ("n_rays", "lidar_range", "field_of_view", "coverage_patc
 def observation_config(env_kwargs: dict, size: int) -> dict:
     """The observation settings of an env made with ``env_kwargs`` (``CoverageEnv``'s defaults for those not given)
     and the observation's size: what a policy or demonstrations must have been recorded with to fit the env."""
-    defaults = {name: parameter.default for name, parameter in inspect.signature(CoverageEnv).parameters.items()}
-    return {**{name: env_kwargs.get(name, defaults[name]) for name in OBSERVATION_SETTINGS}, "size": int(size)}
+    defaults = {
+        name: parameter.default for name, parameter in inspect.signature(CoverageEnv).parameters.items()
+    }
+    return {
+        **{name: env_kwargs.get(name, defaults[name]) for name in OBSERVATION_SETTINGS},
+        "size": int(size),
+    }
 
 
 def checked_action(action, size: int = 2) -> np.ndarray:
@@ -92,14 +96,27 @@ def observation_space(size: int) -> gym.spaces.Box:
 class CoverageEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
 
-    def __init__(self, layout: str | Layout = "a320_cell", protocol: str = "sequential", reward: str = "paper",
-                 n_rays: int = 64, lidar_range: float = 3.5, field_of_view: float = 2 * math.pi,
-                 lidar_noise: float = 0.0, coverage_patch: int = 0, coverage_patch_cell: float = 0.25,
-                 max_steps: int | None = None, terminate_on_bound: bool = False, random_start: bool = False,
-                 render_mode: str | None = None):
+    def __init__(
+        self,
+        layout: str | Layout = "a320_cell",
+        protocol: str = "sequential",
+        reward: str = "paper",
+        n_rays: int = 64,
+        lidar_range: float = 3.5,
+        field_of_view: float = 2 * math.pi,
+        lidar_noise: float = 0.0,
+        coverage_patch: int = 0,
+        coverage_patch_cell: float = 0.25,
+        max_steps: int | None = None,
+        terminate_on_bound: bool = False,
+        random_start: bool = False,
+        render_mode: str | None = None,
+    ):
         self.layout = layout if isinstance(layout, Layout) else load_layout(layout)
         lidar = LidarConfig(n_rays, lidar_range, field_of_view, lidar_noise)
-        self.world = World(self.layout, 1, protocol, lidar, CoveragePatch(coverage_patch, coverage_patch_cell))
+        self.world = World(
+            self.layout, 1, protocol, lidar, CoveragePatch(coverage_patch, coverage_patch_cell)
+        )
         if reward not in REWARD_PRESETS:
             raise ValueError(f"unknown reward preset {reward!r}; choose one of {REWARD_PRESETS}")
         self.reward_preset, self.terminate_on_bound = reward, terminate_on_bound
@@ -108,8 +125,15 @@ class CoverageEnv(gym.Env):
         self.render_mode = render_mode
         self.observation_space = observation_space(self.world.observation_size)
         self.observation_config = observation_config(
-            {"n_rays": n_rays, "lidar_range": lidar_range, "field_of_view": field_of_view,
-             "coverage_patch": coverage_patch, "coverage_patch_cell": coverage_patch_cell}, self.world.observation_size)
+            {
+                "n_rays": n_rays,
+                "lidar_range": lidar_range,
+                "field_of_view": field_of_view,
+                "coverage_patch": coverage_patch,
+                "coverage_patch_cell": coverage_patch_cell,
+            },
+            self.world.observation_size,
+        )
         self.action_space = gym.spaces.Box(-1.0, 1.0, (2,), np.float32)
         self.tracker: EpisodeTracker | None = None
         self.renderer = EnvRenderer(render_mode)
@@ -155,4 +179,3 @@ class CoverageEnv(gym.Env):
 
     def close(self):
         self.renderer.close()
-

@@ -88,17 +88,30 @@ class TeamCoverageEnv(ParallelEnv):
         "render_fps": 10,
     }
 
-    def __init__(self, layout: str | Layout = "a320_cell", n_agents: int = 2, protocol: str = "sequential",
-                 reward: str = "paper", n_rays: int = 64, lidar_range: float = 3.5,
-                 field_of_view: float = 2 * math.pi, lidar_noise: float = 0.0, coverage_patch: int = 0,
-                 coverage_patch_cell: float = 0.25, max_cycles: int | None = None, render_mode: str | None = None,
-                 team_weight: float = 0.5):
+    def __init__(
+        self,
+        layout: str | Layout = "a320_cell",
+        n_agents: int = 2,
+        protocol: str = "sequential",
+        reward: str = "paper",
+        n_rays: int = 64,
+        lidar_range: float = 3.5,
+        field_of_view: float = 2 * math.pi,
+        lidar_noise: float = 0.0,
+        coverage_patch: int = 0,
+        coverage_patch_cell: float = 0.25,
+        max_cycles: int | None = None,
+        render_mode: str | None = None,
+        team_weight: float = 0.5,
+    ):
         if n_agents < 1:
             raise ValueError(f"n_agents must be at least 1, got {n_agents}")
         if reward not in REWARD_PRESETS:
             raise ValueError(f"unknown reward preset {reward!r}; choose one of {REWARD_PRESETS}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}")
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
+            )
         self.layout = layout if isinstance(layout, Layout) else load_layout(layout)
         lidar = LidarConfig(n_rays, lidar_range, field_of_view, lidar_noise)
         patch = CoveragePatch(coverage_patch, coverage_patch_cell)
@@ -112,8 +125,12 @@ class TeamCoverageEnv(ParallelEnv):
         self._index = {agent: index for index, agent in enumerate(self.possible_agents)}
         # One space object per agent, built once: PettingZoo requires the same object on every
         # call, and separate objects let each agent's space be seeded on its own.
-        self.observation_spaces = {agent: observation_space(self.world.observation_size) for agent in self.possible_agents}
-        self.action_spaces = {agent: gymnasium.spaces.Box(-1.0, 1.0, (2,), np.float32) for agent in self.possible_agents}
+        self.observation_spaces = {
+            agent: observation_space(self.world.observation_size) for agent in self.possible_agents
+        }
+        self.action_spaces = {
+            agent: gymnasium.spaces.Box(-1.0, 1.0, (2,), np.float32) for agent in self.possible_agents
+        }
         self.state_space = self._state_space()
 
         self.np_random: np.random.Generator | None = None
@@ -158,7 +175,9 @@ class TeamCoverageEnv(ParallelEnv):
             if action is None:
                 continue
             if np.size(action) != 2:
-                raise ValueError(f"the action of {agent} must have 2 entries (linear, angular), got shape {np.shape(action)}")
+                raise ValueError(
+                    f"the action of {agent} must have 2 entries (linear, angular), got shape {np.shape(action)}"
+                )
             commands[self._index[agent]] = checked_action(action)[0]
 
         events = self.world.step(commands)
@@ -208,17 +227,23 @@ class TeamCoverageEnv(ParallelEnv):
         world, robot = self.world, self.layout.robot
         xmin, ymin, xmax, ymax = self.layout.extent
         poses = world.poses
-        per_robot = np.column_stack([
-            (poses[:, 0] - xmin) / (xmax - xmin),
-            (poses[:, 1] - ymin) / (ymax - ymin),
-            np.cos(poses[:, 2]),
-            np.sin(poses[:, 2]),
-            world.velocities[:, 0] / robot.max_speed,
-            world.velocities[:, 1] / robot.max_turn_rate,
-        ])
+        per_robot = np.column_stack(
+            [
+                (poses[:, 0] - xmin) / (xmax - xmin),
+                (poses[:, 1] - ymin) / (ymax - ymin),
+                np.cos(poses[:, 2]),
+                np.sin(poses[:, 2]),
+                world.velocities[:, 0] / robot.max_speed,
+                world.velocities[:, 1] / robot.max_turn_rate,
+            ]
+        )
         cells = len(self.layout.cells)
-        team = [world.coverage, world.cell_cleared.mean(), world.current_cell / cells,
-                min(1.0, self.tracker.steps / self.max_cycles)]
+        team = [
+            world.coverage,
+            world.cell_cleared.mean(),
+            world.current_cell / cells,
+            min(1.0, self.tracker.steps / self.max_cycles),
+        ]
         state = np.concatenate([per_robot.ravel(), team, world.goal_reached]).astype(np.float32)
         # contacts can push a robot a little faster than commanded: keep the state in its space
         return np.clip(state, self.state_space.low, self.state_space.high)

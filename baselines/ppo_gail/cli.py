@@ -1,0 +1,255 @@
+"""The trainer of the ppo_gail baselines, run by ``python -m cabinbench.train --baseline ppo_gail ...``.
+
+    python -m cabinbench.train --baseline ppo_gail|ppo|ppo_icm|ppo_gail_only
+        [--layout NAME ...] [--iterations N] [--num-envs N] [--steps-per-env N] [--seed S]
+        [--reward paper|coverage] [--[no-]terminate-on-bound] [--max-steps N] [--algorithm JSON]
+        [--min-action-std X] [--coverage-patch N] [--[no-]random-start]
+        [--threads N] [--save-interval N] [--validation-episodes N] [--export last|best]
+        [--demonstrations FILE.npz ...] [--run-dir DIR] [--resume] [--ship] [--keep] [--no-progress]
+
+Options not given take the defaults of ``cabinbench.baselines.ppo_gail.training.TrainConfig`` (the shipped policies'
+configuration; with ``--layout`` repeated, one policy trains on all of them, by default ``a320_cell`` and
+``a320_tracking_cell``). The run lives in ``--run-dir`` (default ``runs/train/<baseline>__seed<S>``): config,
+demonstrations, checkpoints, ``metrics.csv``, ``curves.png`` and the exported ``policy.pt``. ``--resume`` continues
+an interrupted run from its latest checkpoint, with the saved config (``--iterations`` may raise the total).
+At the end every checkpoint's policy plays ``--validation-episodes`` episodes (default 20) on each training layout
+(``validation.csv`` in the run directory); ``--export best`` exports the checkpoint that did best there instead of
+the last (see ``TrainConfig.export`` for why the last is the default).
+``--ship`` copies the exported policy to ``--ship-dir`` (default the repository's ``baselines/ppo_gail/checkpoints/``,
+so run it from the repository root)``/<baseline>.pt``, where
+``python -m cabinbench.run --baseline <baseline>`` finds it, and the run's ``config.json``, ``metrics.csv`` and
+``validation.csv`` to ``results/training/<baseline>/``, from which ``python -m cabinbench.leaderboard`` draws the
+committed training curves. ``--keep`` copies the policy, ``config.json``, ``metrics.csv`` and ``validation.csv`` to
+``results/training/<baseline>/seed<S>/``: a further training run of the same command, which
+``results/make_results.sh`` scores into ``results/ablation.md``.
+
+Exit status: 0 done; 2 bad arguments (an unknown baseline: the valid ones are printed) or a run directory that
+cannot be used as asked; 130 interrupted by Ctrl-C (finished checkpoints are kept; resume with ``--resume``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import sys
+from pathlib import Path
+
+EXIT_USAGE, EXIT_INTERRUPTED = 2, 130
+TRAINABLE = (
+    "ppo_gail",
+    "ppo",
+    "ppo_icm",
+    "ppo_gail_only",
+)  # = cabinbench.baselines.ppo_gail.algorithm.ABLATIONS
+TRAINING_RECORDS = Path("results/training")  # what --ship and --keep keep of a run
+SHIP_DIR = Path("baselines/ppo_gail/checkpoints")  # the repository's, never the installed package's
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog="python -m cabinbench.train",
+        description="Train PPO + curiosity + GAIL (or an ablation) with rsl-rl.",
+    )
+    parser.add_argument("--baseline", required=True, help=f"one of {', '.join(TRAINABLE)}")
+    parser.add_argument(
+        "--layout",
+        action="append",
+        dest="layouts",
+        metavar="NAME",
+        help="training layout (repeat for several; default a320_cell and a320_tracking_cell)",
+    )
+    parser.add_argument("--iterations", type=int, help="total training iterations")
+    parser.add_argument("--num-envs", type=int, help="parallel envs")
+    parser.add_argument(
+        "--steps-per-env", type=int, dest="num_steps_per_env", help="rollout steps per env and iteration"
+    )
+    parser.add_argument("--seed", type=int, help="seed (default 0)")
+    parser.add_argument("--reward", choices=("paper", "coverage"), help="reward preset of the training envs")
+    parser.add_argument("--max-steps", type=int, help="episode step limit (default: each layout's)")
+    parser.add_argument("--threads", type=int, help="torch threads")
+    parser.add_argument("--save-interval", type=int, help="checkpoint every N iterations")
+    parser.add_argument(
+        "--validation-episodes",
+        type=int,
+        metavar="N",
+        help="episodes per training layout on which every checkpoint is validated (0: none)",
+    )
+    parser.add_argument(
+        "--export", choices=("last", "best"), help="export the last checkpoint or the best validated"
+    )
+    parser.add_argument(
+        "--algorithm",
+        type=json.loads,
+        metavar="JSON",
+        help='further algorithm settings, e.g. \'{"gail_strength": 0.1, "entropy_coef": 0.02}\'',
+    )
+    parser.add_argument("--min-action-std", type=float, help="lower clamp of the policy's action std")
+    parser.add_argument(
+        "--coverage-patch",
+        type=int,
+        metavar="N",
+        help="observe an N x N coverage patch (0: lidar and velocity only)",
+    )
+    parser.add_argument(
+        "--random-start",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="start each training episode at a random pose of the start cell",
+    )
+    parser.add_argument(
+        "--terminate-on-bound",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="end episodes on a bound contact",
+    )
+    parser.add_argument(
+        "--demonstrations", nargs="+", metavar="FILE", help="expert .npz files instead of recording"
+    )
+    parser.add_argument("--run-dir", help="run directory (default runs/train/<baseline>__seed<S>)")
+    parser.add_argument(
+        "--resume", action="store_true", help="continue the run in --run-dir from its latest checkpoint"
+    )
+    parser.add_argument("--ship", action="store_true", help="copy the exported policy to --ship-dir")
+    parser.add_argument(
+        "--ship-dir",
+        type=Path,
+        default=SHIP_DIR,
+        help=f"where --ship puts the policy (default {SHIP_DIR}, relative to the repository root)",
+    )
+    parser.add_argument(
+        "--keep",
+        action="store_true",
+        help="copy the policy and training records to results/training/<baseline>/seed<S>/ (results/ablation.md)",
+    )
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    args = parser.parse_args(argv)
+    if args.algorithm is not None and not isinstance(args.algorithm, dict):
+        parser.error("--algorithm must be a JSON object")
+    return args
+
+
+def build_config(args: argparse.Namespace):
+    """The ``TrainConfig``: the saved one when resuming (else the defaults), overridden by the options given."""
+    from cabinbench.baselines.ppo_gail.training import CONFIG_FILE, TrainConfig, default_run_dir
+
+    given = {
+        name: getattr(args, name)
+        for name in (
+            "layouts",
+            "iterations",
+            "num_envs",
+            "num_steps_per_env",
+            "seed",
+            "reward",
+            "terminate_on_bound",
+            "max_steps",
+            "algorithm",
+            "min_action_std",
+            "coverage_patch",
+            "random_start",
+            "threads",
+            "save_interval",
+            "validation_episodes",
+            "export",
+            "demonstrations",
+        )
+        if getattr(args, name) is not None
+    }
+    given["ablation"] = args.baseline
+    run_dir = Path(args.run_dir) if args.run_dir else default_run_dir(TrainConfig(**given))
+    saved_path = run_dir / CONFIG_FILE
+    if args.resume and saved_path.exists():
+        config = TrainConfig.from_dict({**json.loads(saved_path.read_text()), **given})
+    else:
+        config = TrainConfig(**given)
+    return config, run_dir
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    if args.baseline not in TRAINABLE:
+        print(
+            f"error: cannot train baseline {args.baseline!r}; trainable baselines: {', '.join(TRAINABLE)}",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE
+    if args.ship and not args.ship_dir.is_dir():
+        print(
+            f"error: --ship-dir {args.ship_dir} is not a folder; run from the repository root or give --ship-dir DIR",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE
+    os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
+    from cabinbench.baselines.ppo_gail.training import train
+    from cabinbench.layout import LayoutError, available_layouts, load_layout
+
+    try:
+        config, run_dir = build_config(args)
+        for layout in config.layouts:
+            load_layout(layout)
+    except LayoutError as error:
+        print(f"error: {error}\nvalid layouts: {', '.join(available_layouts())}", file=sys.stderr)
+        return EXIT_USAGE
+    except (ValueError, TypeError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_USAGE
+
+    print(
+        f"training {config.ablation} on {', '.join(config.layouts)}: {config.iterations} iterations x "
+        f"{config.num_envs} envs x {config.num_steps_per_env} steps; run dir {run_dir}",
+        file=sys.stderr,
+    )
+    try:
+        result = train(config, run_dir, resume=args.resume, progress=not args.no_progress)
+    except (FileExistsError, ValueError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:  # before the first iteration (recording demonstrations, building the runner)
+        print("interrupted before training started", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    if result.interrupted:
+        return EXIT_INTERRUPTED
+
+    summary = result.summary
+    print(
+        f"done: {result.iterations} iterations, {summary['timesteps']} steps, {result.train_time / 60:.1f} min of "
+        f"training; last iterations: coverage {summary['final_coverage']}, success {summary['final_success']}"
+    )
+    print(
+        f"policy: {result.policy_path} (the checkpoint of iteration {summary['exported_iteration']}, "
+        f"--export {config.export})\ncurves: {result.run_dir / 'curves.png'}\nmetrics: {result.run_dir / 'metrics.csv'}"
+    )
+    if config.validation_episodes:
+        print(f"validation of every checkpoint: {result.run_dir / 'validation.csv'}")
+    if args.ship:
+        shipped = args.ship_dir / f"{config.ablation}.pt"
+        copy_file(result.policy_path, shipped)
+        records = TRAINING_RECORDS / config.ablation
+        for name in training_records(config):
+            copy_file(result.run_dir / name, records / name)
+        print(f"shipped: {shipped}; training records: {records}")
+    if args.keep:
+        kept = TRAINING_RECORDS / config.ablation / f"seed{config.seed}"
+        for name in ("policy.pt", *training_records(config)):
+            copy_file(result.run_dir / name, kept / name)
+        print(f"kept: {kept} (score it with the loop in results/make_results.sh)")
+    return 0
+
+
+def training_records(config) -> tuple[str, ...]:
+    """The files of a run that ``--ship`` and ``--keep`` keep beside its policy."""
+    return ("config.json", "metrics.csv", *(("validation.csv",) if config.validation_episodes else ()))
+
+
+def copy_file(source: Path, target: Path) -> None:
+    """Copy atomically: a reader never sees a half-written file."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    temporary = target.with_name(target.name + ".tmp")
+    shutil.copyfile(source, temporary)
+    os.replace(temporary, target)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
