@@ -30,6 +30,8 @@ import yaml
 from matplotlib.path import Path as PolygonPath
 from scipy import ndimage
 
+from .geometry import world_to_pixel
+
 RESOLUTION = 0.05  # metres per coverage-raster pixel, the seed's map resolution
 LAYOUT_PATH_VARIABLE = "CABINBENCH_LAYOUT_PATH"
 MARKER_RADIUS = 0.08  # goal cubes and exit landmarks, as the lidar sees them
@@ -135,12 +137,10 @@ class Layout:
         return x0 + (np.arange(cols) + 0.5) * RESOLUTION, y0 + (np.arange(rows) + 0.5) * RESOLUTION
 
     def to_pixel(self, x: float, y: float) -> tuple[int, int]:
-        x0, y0 = self.origin
+        """(row, col) of the raster pixel holding (x, y), or of the nearest edge pixel for a point outside."""
         rows, cols = self.raster_shape
-        return (
-            min(rows - 1, max(0, int((y - y0) / RESOLUTION))),
-            min(cols - 1, max(0, int((x - x0) / RESOLUTION))),
-        )
+        row, col = world_to_pixel((x, y), RESOLUTION, self.origin)
+        return min(rows - 1, max(0, row)), min(cols - 1, max(0, col))
 
     @cached_property
     def free_raster(self) -> np.ndarray:

@@ -21,6 +21,7 @@ from numba import njit
 from pymunk._chipmunk import lib as chipmunk
 
 from .coverage import CoveragePatch, stamp_footprint, write_coverage_patch
+from .geometry import distances_to_segments, wrap_angle
 from .layout import MARKER_RADIUS, RESOLUTION, Layout
 from .lidar import BOUND, EXIT, GOAL, OBSTACLE, ROBOT, LidarConfig, cast_rays, encode_scan
 
@@ -271,7 +272,7 @@ class World:
         events = self._pending
         self._pending = [RobotEvents() for _ in range(self.n_robots)]
         for index, ((x0, y0, heading), (x1, y1, heading1)) in enumerate(zip(before, after)):
-            turned = _wrap(heading1 - heading)
+            turned = wrap_angle(heading1 - heading)
             robot_events = events[index]
             robot_events.distance = math.hypot(x1 - x0, y1 - y0)
             robot_events.rotation = abs(turned)
@@ -376,7 +377,10 @@ class World:
         if any(cell <= passage for cell in cells):  # cells are numbered along the cabin; -1 is no cell
             return False
         bounds = self.layout.passages[passage].bounds
-        return all(_distance_to_segments(position, bounds) > self._radius + 0.01 for position in positions)
+        return all(
+            distances_to_segments(position, bounds[:, :2], bounds[:, 2:]).min() > self._radius + 0.01
+            for position in positions
+        )
 
     # ------------------------------------------------------------------------- observe
     def markers_visible(self) -> tuple[np.ndarray, np.ndarray]:
@@ -549,18 +553,6 @@ def markers_reached(circles, circle_on, first, count, poses, reach, hits):
                 n_hit += 1
                 break
     return n_hit
-
-
-def _wrap(angle: float) -> float:
-    return (angle + math.pi) % (2 * math.pi) - math.pi
-
-
-def _distance_to_segments(point: np.ndarray, segments: np.ndarray) -> float:
-    starts, ends = segments[:, :2], segments[:, 2:]
-    direction = ends - starts
-    length_sq = np.maximum((direction**2).sum(axis=1), 1e-12)
-    t = np.clip(((point - starts) * direction).sum(axis=1) / length_sq, 0.0, 1.0)
-    return float(np.hypot(*(starts + t[:, None] * direction - point).T).min())
 
 
 def start_cell_spots(layout: Layout) -> np.ndarray:

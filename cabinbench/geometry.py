@@ -1,0 +1,52 @@
+"""Plane geometry shared by the layouts, the world and the planners: one definition each.
+
+Conventions: metres; headings in radians, counter-clockwise from +x. The coverage raster's pixel
+(row, col) covers x in [origin_x + col * res, origin_x + (col + 1) * res) and y likewise with
+row; row 0 is the lowest y (images drawn from it are flipped to put it at the bottom).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+
+def wrap_angle(angle: float) -> float:
+    """Angle wrapped to [-pi, pi)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def distances_to_segments(point: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Distance from ``point`` (x, y) to each segment ``starts[i]``-``ends[i]`` (arrays (M, 2)); a segment of
+    zero length is its start point."""
+    direction = ends - starts
+    length_sq = np.maximum((direction**2).sum(axis=1), 1e-12)
+    t = np.clip(((point - starts) * direction).sum(axis=1) / length_sq, 0.0, 1.0)
+    return np.hypot(*(starts + t[:, None] * direction - point).T)
+
+
+def points_to_segment(points: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """Distance from each of ``points`` (N, 2) to the one segment ``start``-``end``."""
+    offsets = np.asarray(points, dtype=float) - start
+    delta = end - start
+    length2 = float(delta @ delta)
+    t = np.zeros(len(offsets)) if length2 == 0 else np.clip(offsets @ delta / length2, 0.0, 1.0)
+    return np.hypot(*(offsets - t[:, None] * delta).T)
+
+
+def world_to_pixel(point: Sequence[float], resolution: float, origin: Sequence[float]) -> tuple[int, int]:
+    """(row, col) of the pixel containing world point (x, y); outside the raster when the point is."""
+    return (
+        int(math.floor((point[1] - origin[1]) / resolution)),
+        int(math.floor((point[0] - origin[0]) / resolution)),
+    )
+
+
+def pixels_to_world(pixels: np.ndarray, resolution: float, origin: Sequence[float]) -> np.ndarray:
+    """World (x, y) of the centres of pixels (row, col), shape (N, 2) -> (N, 2)."""
+    pixels = np.asarray(pixels, dtype=float)
+    return np.column_stack(
+        (origin[0] + (pixels[:, 1] + 0.5) * resolution, origin[1] + (pixels[:, 0] + 0.5) * resolution)
+    )
