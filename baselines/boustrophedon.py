@@ -84,6 +84,7 @@ from scipy.sparse.csgraph import dijkstra
 from cabinbench.agents import Baseline, EpisodeContext
 from cabinbench.layout import RESOLUTION, Layout
 from cabinbench.lidar import LidarConfig
+from cabinbench.observation import LIDAR_CHANNELS, lidar_rays
 from cabinbench.world import TIME_STEP, start_poses
 
 from .coverage_planning import FreeSpace, driving_time, pixels_to_world, plan_coverage, world_to_pixel
@@ -1073,12 +1074,11 @@ class Boustrophedon(Baseline):
 
     def _robot_in_front(self, observation: np.ndarray) -> bool:
         """True when the lidar sees another robot in the strip the robot is about to drive into."""
-        rays = len(self.ray_angles)
-        scan = np.asarray(observation[: 6 * rays]).reshape(rays, 6)
-        robot_hits = scan[:, 5] > 0.5
+        rays = lidar_rays(observation, self.context.observation_layout)
+        robot_hits = rays[:, LIDAR_CHANNELS.index("robot")] > 0.5
         if not robot_hits.any():
             return False
-        distance = scan[robot_hits, 0] * self.lidar_range
+        distance = rays[robot_hits, LIDAR_CHANNELS.index("distance")] * self.lidar_range
         angle = self.ray_angles[robot_hits]
         ahead, aside = distance * np.cos(angle), distance * np.sin(angle)
         radius = self.context.layout.robot.radius
@@ -1104,7 +1104,10 @@ def record_demonstrations(
         observation, info = env.reset(seed=seed + episode)
         noise = np.random.default_rng([seed, episode])
         planner = Boustrophedon()
-        planner.reset(EpisodeContext(env.layout, env.world.protocol, seed + episode), observation, info)
+        context = EpisodeContext(
+            env.layout, env.world.protocol, seed + episode, observation_layout=env.observation_layout
+        )
+        planner.reset(context, observation, info)
         done = False
         while not done:
             action = np.clip(planner.act(observation, info), -1, 1)

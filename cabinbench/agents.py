@@ -50,6 +50,7 @@ class EpisodeContext:
     agent: int = 0
     n_agents: int = 1
     env_config: dict = field(default_factory=dict)  # lidar and reward settings the env was made with
+    observation_layout: dict = field(default_factory=dict)  # part name -> slice (cabinbench.observation)
 
 
 class Baseline:

@@ -132,7 +132,13 @@ def run_episode(
     agents = list(env.agents)
     for index, (agent, baseline) in enumerate(zip(agents, baselines)):
         context = EpisodeContext(
-            layout, protocol, seed, agent=index, n_agents=n_agents, env_config=env_kwargs
+            layout,
+            protocol,
+            seed,
+            agent=index,
+            n_agents=n_agents,
+            env_config=env_kwargs,
+            observation_layout=env.unwrapped.observation_layout,
         )
         baseline.reset(context, observations[agent], infos[agent])
 

@@ -22,6 +22,7 @@ from pymunk._chipmunk import lib as chipmunk
 
 from .coverage import CoveragePatch, stamp_footprint, write_coverage_patch
 from .geometry import distances_to_segments, wrap_angle
+from .observation import observation_layout, observation_size
 from .layout import MARKER_RADIUS, RESOLUTION, Layout
 from .lidar import BOUND, EXIT, GOAL, OBSTACLE, ROBOT, LidarConfig, cast_rays, encode_scan
 
@@ -79,10 +80,8 @@ class World:
             patch,
         )
         self.ray_angles = lidar.ray_angles()
-        self.observation_size = lidar.n_rays * 6 + patch.size + 2
-        self.patch_columns = slice(
-            lidar.n_rays * 6, lidar.n_rays * 6 + patch.size
-        )  # where observe writes the patch
+        self.observation_layout = observation_layout(lidar.n_rays, patch.size)
+        self.observation_size = observation_size(self.observation_layout)
         self.start_poses = start_poses(layout, n_robots)
         robot = layout.robot
         self._radius = robot.radius
@@ -409,9 +408,8 @@ class World:
         self.cell_visible[: self.layout.cleared_cells] = False
 
     def observe(self, index: int, out: np.ndarray | None = None) -> np.ndarray:
-        """Local observation of robot ``index``: per ray [distance / range, one-hot tag], the coverage
-        patch (if any), then [forward speed / max_speed, turn rate / max_turn_rate], clipped to [-1, 1].
-        Written into ``out`` (float32, ``observation_size``) when given, else into a new array."""
+        """Local observation of robot ``index``, laid out as ``self.observation_layout``
+        (:mod:`cabinbench.observation`). Written into ``out`` (float32, ``observation_size``) when given, else into a new array."""
         if out is None:
             out = np.empty(self.observation_size, dtype=np.float32)
         lidar, robot = self.lidar, self.layout.robot
@@ -433,13 +431,14 @@ class World:
             self.circle_tags,
             self.circle_on,
             noise,
+            self.observation_layout["velocity"].start,
         )
         if self.patch.cells:
             x, y, heading = self._poses[index]
             origin_x, origin_y = self.layout.origin
             write_coverage_patch(
                 out,
-                self.patch_columns.start,
+                self.observation_layout["coverage_patch"].start,
                 x,
                 y,
                 heading,
@@ -474,6 +473,7 @@ def write_observation(
     circle_tags,
     circle_on,
     noise,
+    velocity_at,
 ):
     """:meth:`World.observe` in one compiled call: the scan of robot ``index`` (its own disc
     contains the ray origin, so the cast skips it), its range ``noise`` (empty: none), then the
@@ -503,8 +503,8 @@ def write_observation(
             distances[r] = min(max(distances[r] + noise[r], 0.0), max_range)
     encode_scan(distances, tags, max_range, out)
     # contacts can push a robot a little faster than commanded: keep the entries in [-1, 1]
-    out[-2] = min(1.0, max(-1.0, velocities[index, 0] / max_speed))
-    out[-1] = min(1.0, max(-1.0, velocities[index, 1] / max_turn_rate))
+    out[velocity_at] = min(1.0, max(-1.0, velocities[index, 0] / max_speed))
+    out[velocity_at + 1] = min(1.0, max(-1.0, velocities[index, 1] / max_turn_rate))
 
 
 class _ChipmunkCalls:

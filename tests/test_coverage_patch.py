@@ -37,7 +37,7 @@ def reference_patch(world, x, y, heading, cells=CELLS, cell_size=CELL_SIZE):
 
 
 def observed_patch(env, observation):
-    return observation[env.world.patch_columns].reshape(CELLS, CELLS)
+    return observation[env.unwrapped.observation_layout["coverage_patch"]].reshape(CELLS, CELLS)
 
 
 def test_patch_sits_between_the_rays_and_the_velocities_and_leaves_them_alone():

@@ -486,7 +486,9 @@ def train(
         expert_demonstrations=demonstrations,
         expected_observation_config=obs_config,
         # the ICM and the discriminator see lidar and velocity, never the coverage patch (see PPOCuriosityGail)
-        shaping_columns=np.delete(np.arange(world.observation_size), world.patch_columns).tolist()
+        shaping_columns=np.delete(
+            np.arange(world.observation_size), world.observation_layout["coverage_patch"]
+        ).tolist()
         if config.coverage_patch
         else None,
         num_steps_per_env=config.num_steps_per_env,

@@ -124,6 +124,7 @@ class CoverageEnv(gym.Env):
         self.max_steps = max_steps or self.layout.max_steps
         self.render_mode = render_mode
         self.observation_space = observation_space(self.world.observation_size)
+        self.observation_layout = self.world.observation_layout  # part name -> slice (cabinbench.observation)
         self.observation_config = observation_config(
             {
                 "n_rays": n_rays,

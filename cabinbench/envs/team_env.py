@@ -125,6 +125,7 @@ class TeamCoverageEnv(ParallelEnv):
         self._index = {agent: index for index, agent in enumerate(self.possible_agents)}
         # One space object per agent, built once: PettingZoo requires the same object on every
         # call, and separate objects let each agent's space be seeded on its own.
+        self.observation_layout = self.world.observation_layout  # part name -> slice, as every agent's
         self.observation_spaces = {
             agent: observation_space(self.world.observation_size) for agent in self.possible_agents
         }
