@@ -66,8 +66,8 @@ class Baseline:
 
     @property
     def env_options(self) -> dict:
-        """Env keyword arguments this baseline needs (a learned policy: the observation settings it was trained
-        with). The runner makes the env with them, under any the caller set explicitly."""
+        """Env keyword arguments this baseline needs (a learned policy: the observation settings it was
+        trained with). The runner makes the env with them, under any the caller set explicitly."""
         return {}
 
     def reset(self, context: EpisodeContext, observation: np.ndarray, info: dict) -> None:

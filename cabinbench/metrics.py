@@ -64,9 +64,9 @@ METRICS = (
 )
 TEAM_METRICS = ("n_agents", "robot_collisions", "path_lengths", "makespan", "load_balance")
 CLEARANCE_BANDS = (0.0, 0.05, 0.10, 0.20, 0.35)
-"""Lower edges, in metres from the nearest wall, of the bands of :func:`uncovered_by_clearance`; the last band is
-open-ended. A robot covers the first band only when its edge comes within 5 cm of the wall; floor 0.35 m (the
-built-in robot's diameter) or more from every wall is covered by any pass over it."""
+"""Lower edges, in metres from the nearest wall, of the bands of :func:`uncovered_by_clearance`; the last
+band is open-ended. A robot covers the first band only when its edge comes within 5 cm of the wall; floor
+0.35 m (the built-in robot's diameter) or more from every wall is covered by any pass over it."""
 
 
 def overlap(pass_count: np.ndarray) -> float:
@@ -80,9 +80,9 @@ def uncovered_by_clearance(
     clearance: np.ndarray,
     bands: tuple[float, ...] = CLEARANCE_BANDS,
 ) -> np.ndarray:
-    """Uncovered coverable area in each band of ``clearance`` (a pixel centre's distance to the nearest wall,
-    :attr:`~cabinbench.layout.Layout.clearance`) over the whole coverable area: the entries sum to 1 - coverage.
-    With a ``pass_count`` of zeros: each band's share of the coverable area."""
+    """Uncovered coverable area in each band of ``clearance`` (a pixel centre's distance to the nearest
+    wall, :attr:`~cabinbench.layout.Layout.clearance`) over the whole coverable area: the entries sum to
+    1 - coverage. With a ``pass_count`` of zeros: each band's share of the coverable area."""
     band = np.digitize(clearance[coverable_mask], bands[1:])
     uncovered = pass_count[coverable_mask] == 0
     return np.bincount(band[uncovered], minlength=len(bands)) / band.size

@@ -16,10 +16,10 @@ CORE = Path(cabinbench.__file__).resolve().parent
 BUILT_IN = {"random_bounce", "boustrophedon", "ppo_gail", "ppo", "ppo_icm", "ppo_gail_only"}
 
 
-def run_python(code_or_args: list[str], env_extra: dict | None = None, cwd=None) -> subprocess.CompletedProcess:
+def run_python(args: list[str], env_extra: dict | None = None, cwd=None) -> subprocess.CompletedProcess:
     env = {**os.environ, **(env_extra or {})}
     return subprocess.run(
-        [sys.executable, *code_or_args], capture_output=True, text=True, timeout=300, env=env, cwd=cwd
+        [sys.executable, *args], capture_output=True, text=True, timeout=300, env=env, cwd=cwd
     )
 
 
@@ -39,8 +39,8 @@ def test_an_unknown_baseline_names_the_registered_ones():
 
 
 def test_a_third_party_package_adds_a_baseline_through_its_entry_point(tmp_path):
-    """A package that declares ``[project.entry-points."cabinbench.baselines"] spinner = "spinner_pkg:Spinner"``
-    runs as ``run --baseline spinner`` with no edit to cabinbench. The package is installed the way pip
+    """A package that declares ``spinner = "spinner_pkg:Spinner"`` in the entry-point group
+    ``cabinbench.baselines`` runs as ``run --baseline spinner`` with no edit to cabinbench. The package is installed the way pip
     leaves it: its module and a dist-info folder with entry_points.txt, on sys.path."""
     site = tmp_path / "site"
     (site / "spinner_pkg").mkdir(parents=True)
