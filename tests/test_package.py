@@ -40,8 +40,8 @@ def test_an_unknown_baseline_names_the_registered_ones():
 
 def test_a_third_party_package_adds_a_baseline_through_its_entry_point(tmp_path):
     """A package that declares ``spinner = "spinner_pkg:Spinner"`` in the entry-point group
-    ``cabinbench.baselines`` runs as ``run --baseline spinner`` with no edit to cabinbench. The package is installed the way pip
-    leaves it: its module and a dist-info folder with entry_points.txt, on sys.path."""
+    ``cabinbench.baselines`` runs as ``run --baseline spinner`` with no edit to cabinbench. The package is
+    installed the way pip leaves it: its module and a dist-info folder with entry_points.txt, on sys.path."""
     site = tmp_path / "site"
     (site / "spinner_pkg").mkdir(parents=True)
     (site / "spinner_pkg" / "__init__.py").write_text(
