@@ -1,15 +1,24 @@
 """Layouts: the one place that reads layout YAML files and turns them into geometry.
 
-A layout file describes one environment (DESIGN.md, "Layout"). Three kinds build the obstacles:
+A layout file describes one environment (README, "Layouts"). Its ``kind`` names the module that
+builds its obstacles from the block of that name:
 
-- ``cabin``: parametric seat rows (see :func:`_build_cabin`);
-- ``grid``: an ASCII occupancy map (``#`` obstacle, ``.`` free, ``S`` start);
-- ``polygons``: an outer boundary polygon plus obstacle polygons, in metres.
+- ``cabin``: parametric seat rows (:mod:`cabinbench.layout_cabin`);
+- ``grid``: an ASCII occupancy map, ``#`` obstacle, ``.`` free, optional ``S`` start
+  (:mod:`cabinbench.layout_grid`, which also says where a map without ``S`` starts);
+- ``polygons``: an outer boundary polygon plus obstacle polygons, in metres
+  (:mod:`cabinbench.layout_polygons`).
 
-Every kind may also set ``robot``, ``cells`` (not for ``cabin``, which derives its cells from
-``rows_per_cell``), ``goals``, ``start``, ``max_steps``, ``success_coverage``, ``description`` and
-``source``. :func:`load_layout` validates everything and raises :class:`LayoutError` naming the
-file, the field, the problem and the fix.
+Adding a kind is one module and one registration: write ``cabinbench/layout_<kind>.py`` with a
+``build(check, block, robot)`` that returns a :class:`~cabinbench.layout_fields.KindGeometry`
+(failing through ``check``, a :class:`~cabinbench.layout_fields.FieldChecker`, on a bad field),
+declare it as a :class:`~cabinbench.layout_fields.LayoutKind`, and add that to
+:data:`LAYOUT_KINDS` below. Only this module reads layout files; the kinds see parsed YAML.
+
+Every kind may also set ``robot``, ``cells`` (not a kind that derives its own, like ``cabin``
+from ``rows_per_cell``), ``goals``, ``start``, ``max_steps``, ``success_coverage``,
+``cleared_cells``, ``description`` and ``source``. :func:`load_layout` validates everything and
+raises :class:`LayoutError` naming the file, the field, the problem and the fix.
 
 Coordinates are metres, x to the right (along the cabin, nose to tail), y up (across the cabin).
 Rasters are indexed ``[iy, ix]``; pixel ``(iy, ix)`` has its centre at
@@ -31,42 +40,15 @@ from matplotlib.path import Path as PolygonPath
 from scipy import ndimage
 
 from .geometry import world_to_pixel
+from .layout_cabin import CABIN
+from .layout_fields import CONTACT_CLEARANCE, Cell, FieldChecker, LayoutError, LayoutKind, RobotSpec
+from .layout_grid import GRID
+from .layout_polygons import POLYGONS
 
 RESOLUTION = 0.05  # metres per coverage-raster pixel, the seed's map resolution
 LAYOUT_PATH_VARIABLE = "CABINBENCH_LAYOUT_PATH"
 MARKER_RADIUS = 0.08  # goal cubes and exit landmarks, as the lidar sees them
-CONTACT_CLEARANCE = 0.01  # metres: a reachable pose keeps this from walls, so covering needs no contact
 DEFAULT_SUCCESS_COVERAGE = 0.98  # "all coverable area covered", less the raster's rounding at edges
-
-
-class LayoutError(ValueError):
-    """A layout file is invalid. The message names the file, the field, the problem and the fix."""
-
-    def __init__(self, source: str, field_name: str, problem: str, fix: str):
-        self.source, self.field_name, self.problem, self.fix = source, field_name, problem, fix
-        super().__init__(f"{source}: field '{field_name}': {problem}. Fix: {fix}")
-
-
-@dataclass(frozen=True)
-class RobotSpec:
-    """The disc robot: its cleaning footprint is the disc itself."""
-
-    radius: float = 0.175
-    max_speed: float = 0.5  # m/s at action linear = 1
-    max_turn_rate: float = 2.0  # rad/s at action angular = 1
-
-    @property
-    def tool_width(self) -> float:
-        return 2.0 * self.radius
-
-
-@dataclass(frozen=True)
-class Cell:
-    """A cleaning cell of the sequential protocol: an axis-aligned rectangle and its goal markers."""
-
-    name: str
-    rect: tuple[float, float, float, float]  # xmin, ymin, xmax, ymax
-    goals: np.ndarray  # (k, 2) marker points
 
 
 @dataclass(frozen=True)
@@ -240,7 +222,8 @@ class Layout:
 
 
 # --------------------------------------------------------------------------------- loading
-_COMMON_KEYS = {
+LAYOUT_KINDS: dict[str, LayoutKind] = {kind.name: kind for kind in (CABIN, GRID, POLYGONS)}
+COMMON_KEYS = {
     "name",
     "kind",
     "description",
@@ -252,21 +235,6 @@ _COMMON_KEYS = {
     "max_steps",
     "success_coverage",
     "cleared_cells",
-    "cabin",
-    "grid",
-    "polygons",
-}
-_CABIN_KEYS = {
-    "width",
-    "seat_blocks",
-    "block_widths",
-    "aisle_width",
-    "rows",
-    "seat_pitch",
-    "seat_depth",
-    "rows_per_cell",
-    "front_clearance",
-    "rear_clearance",
 }
 
 
@@ -293,11 +261,7 @@ def load_layout(name_or_path: str | os.PathLike) -> Layout:
     """Load a layout by registered name or by path to a YAML file."""
     candidate = Path(name_or_path)
     if candidate.suffix in (".yaml", ".yml") or candidate.exists():
-        if not candidate.is_file():
-            raise LayoutError(
-                str(candidate), "<file>", "no such file", "give an existing .yaml path or a layout name"
-            )
-        return parse_layout(candidate.read_text(), source=str(candidate), default_name=candidate.stem)
+        return read_layout(candidate)
     layouts = available_layouts()
     if str(name_or_path) not in layouts:
         raise LayoutError(
@@ -306,8 +270,29 @@ def load_layout(name_or_path: str | os.PathLike) -> Layout:
             "unknown layout",
             f"use one of {', '.join(layouts)}, or a path to a .yaml file",
         )
-    path = layouts[str(name_or_path)]
-    return parse_layout(path.read_text(), source=str(path), default_name=path.stem)
+    return read_layout(layouts[str(name_or_path)])
+
+
+def read_layout(path: Path) -> Layout:
+    """Load the layout file at ``path``; a file that cannot be read is a :class:`LayoutError` too."""
+    if path.is_dir():
+        raise LayoutError(str(path), "<file>", "is a folder", "give a layout file, e.g. a .yaml inside it")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise LayoutError(
+            str(path), "<file>", "no such file", "give an existing .yaml path or a layout name"
+        ) from None
+    except UnicodeDecodeError as error:
+        line = error.object[: error.start].count(b"\n") + 1
+        raise LayoutError(
+            str(path), "<file>", f"not UTF-8 text (line {line})", "save the file as UTF-8"
+        ) from None
+    except OSError as error:
+        raise LayoutError(
+            str(path), "<file>", f"cannot be read ({error.strerror})", "check the file"
+        ) from None
+    return parse_layout(text, source=str(path), default_name=path.stem)
 
 
 def parse_layout(text: str, source: str = "<string>", default_name: str = "layout") -> Layout:
@@ -318,49 +303,41 @@ def parse_layout(text: str, source: str = "<string>", default_name: str = "layou
         raise LayoutError(
             source, "<file>", f"not valid YAML ({error})".replace("\n", " "), "fix the YAML syntax"
         ) from None
-    check = _Checker(source)
+    check = FieldChecker(source)
+    kinds = ", ".join(LAYOUT_KINDS)
     if not isinstance(spec, dict):
         raise LayoutError(
             source,
             "<file>",
             "the file is not a mapping of fields",
-            "write 'kind: cabin|grid|polygons' and its block",
+            f"write 'kind: <one of {kinds}>' and its block",
         )
-    check.known_keys(spec, _COMMON_KEYS, "")
-    kind = spec.get("kind")
-    if kind not in ("cabin", "grid", "polygons"):
-        raise LayoutError(source, "kind", f"is {kind!r}", "set kind to one of cabin, grid, polygons")
-    if kind not in spec:
-        raise LayoutError(source, kind, "missing", f"add a '{kind}:' block with the {kind} parameters")
-    for other in {"cabin", "grid", "polygons"} - {kind}:
-        if other in spec:
-            raise LayoutError(source, other, f"given but kind is {kind}", f"remove the '{other}' block")
+    check.known_keys(spec, COMMON_KEYS | set(LAYOUT_KINDS), "")
+    kind_name = spec.get("kind")
+    if not isinstance(kind_name, str) or kind_name not in LAYOUT_KINDS:
+        raise LayoutError(source, "kind", f"is {kind_name!r}", f"set kind to one of {kinds}")
+    if kind_name not in spec:
+        raise LayoutError(
+            source, kind_name, "missing", f"add a '{kind_name}:' block with the {kind_name} parameters"
+        )
+    for other in LAYOUT_KINDS:
+        if other != kind_name and other in spec:
+            raise LayoutError(source, other, f"given but kind is {kind_name}", f"remove the '{other}' block")
+    kind = LAYOUT_KINDS[kind_name]
+    if kind.derives_cells and "cells" in spec:
+        raise LayoutError(source, "cells", f"{kind_name} layouts derive their cells", kind.derives_cells)
     robot = check.robot(spec.get("robot", {}))
-
-    if kind == "cabin":
-        if "cells" in spec:
-            raise LayoutError(
-                source,
-                "cells",
-                "cabin layouts derive their cells",
-                "remove 'cells' and set cabin.rows_per_cell",
-            )
-        boundary, obstacles, cells, default_start = _build_cabin(check, spec["cabin"], robot)
-    elif kind == "grid":
-        boundary, obstacles, default_start = _build_grid(check, spec["grid"])
-        cells = None
-    else:
-        boundary, obstacles = _build_polygons(check, spec["polygons"])
-        default_start, cells = None, None
+    geometry = kind.build(check, spec[kind_name], robot)
+    boundary, obstacles, cells = geometry.boundary, geometry.obstacles, geometry.cells
     if cells is None:
         cells = check.cells(spec.get("cells"), boundary)
     if "goals" in spec:
         cells = _assign_goals(check, spec["goals"], cells)
 
-    start = check.start(spec.get("start"), default_start)
+    start = check.start(spec.get("start"), geometry.start)
     layout = Layout(
         name=check.string(spec.get("name", default_name), "name"),
-        kind=kind,
+        kind=kind_name,
         description=check.string(spec.get("description", ""), "description"),
         source=check.string(spec.get("source", ""), "source"),
         path=source,
@@ -376,7 +353,7 @@ def parse_layout(text: str, source: str = "<string>", default_name: str = "layou
             spec.get("success_coverage", DEFAULT_SUCCESS_COVERAGE), "success_coverage"
         ),
         cleared_cells=_cleared_cells(check, spec.get("cleared_cells", 0), len(cells)),
-        parameters=dict(spec[kind]) if isinstance(spec[kind], dict) else {"map": spec[kind]},
+        parameters=dict(spec[kind_name]) if isinstance(spec[kind_name], dict) else {"map": spec[kind_name]},
     )
     _validate_geometry(check, layout)
     layout.passages = _build_passages(layout)
@@ -384,130 +361,7 @@ def parse_layout(text: str, source: str = "<string>", default_name: str = "layou
     return layout
 
 
-class _Checker:
-    """Field validation with error messages that name the file and the field."""
-
-    def __init__(self, source: str):
-        self.source = source
-
-    def fail(self, field_name: str, problem: str, fix: str):
-        raise LayoutError(self.source, field_name, problem, fix)
-
-    def known_keys(self, mapping: dict, allowed: set[str], prefix: str):
-        for key in mapping:
-            if key not in allowed:
-                self.fail(
-                    f"{prefix}{key}", "unknown key", f"remove it; allowed here: {', '.join(sorted(allowed))}"
-                )
-
-    def number(self, value, field_name: str, positive: bool = True, allow_zero: bool = False) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            self.fail(field_name, f"expected a number, got {value!r}", "write a number in metres/seconds")
-        if positive and (value < 0 or (value == 0 and not allow_zero)):
-            self.fail(
-                field_name,
-                f"must be {'non-negative' if allow_zero else 'positive'}, got {value}",
-                "use a size greater than zero",
-            )
-        return float(value)
-
-    def positive_int(self, value, field_name: str) -> int:
-        if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
-            self.fail(field_name, f"expected a positive integer, got {value!r}", "write a whole number ≥ 1")
-        return int(value)
-
-    def fraction(self, value, field_name: str) -> float:
-        value = self.number(value, field_name)
-        if value > 1:
-            self.fail(field_name, f"must be in (0, 1], got {value}", "write a fraction such as 0.95")
-        return value
-
-    def string(self, value, field_name: str) -> str:
-        if not isinstance(value, str):
-            self.fail(field_name, f"expected text, got {value!r}", "quote the value")
-        return value
-
-    def mapping(self, value, field_name: str) -> dict:
-        if not isinstance(value, dict):
-            self.fail(
-                field_name,
-                f"expected a mapping, got {type(value).__name__}",
-                "write 'key: value' lines under it",
-            )
-        return value
-
-    def point(self, value, field_name: str, size: int = 2) -> list[float]:
-        if not isinstance(value, (list, tuple)) or len(value) != size:
-            self.fail(
-                field_name,
-                f"expected [{', '.join('xyz'[:size])}], got {value!r}",
-                f"write a list of {size} numbers",
-            )
-        return [self.number(v, f"{field_name}[{i}]", positive=False) for i, v in enumerate(value)]
-
-    def polygon(self, value, field_name: str) -> np.ndarray:
-        if not isinstance(value, list) or len(value) < 3:
-            self.fail(field_name, "a polygon needs at least 3 points", "list the corners as [[x, y], ...]")
-        points = np.array([self.point(p, f"{field_name}[{i}]") for i, p in enumerate(value)])
-        if np.allclose(points[0], points[-1]):
-            points = points[:-1]  # a repeated first point closes the ring explicitly
-        if len(points) >= 4 and _self_intersects(points):
-            self.fail(
-                field_name,
-                "the polygon intersects itself",
-                "order the corners around the outline without crossings",
-            )
-        if len(points) < 3 or abs(_signed_area(points)) < 1e-9:
-            self.fail(
-                field_name,
-                "the polygon is not closed (zero area)",
-                "give at least 3 distinct, non-collinear corners",
-            )
-        return points
-
-    def robot(self, value) -> RobotSpec:
-        value = self.mapping(value, "robot")
-        self.known_keys(value, {"radius", "max_speed", "max_turn_rate"}, "robot.")
-        return RobotSpec(**{k: self.number(v, f"robot.{k}") for k, v in value.items()})
-
-    def rect(self, value, field_name: str) -> tuple[float, float, float, float]:
-        xmin, ymin, xmax, ymax = self.point(value, field_name, size=4)
-        if xmax <= xmin or ymax <= ymin:
-            self.fail(field_name, f"empty rectangle {value}", "write [xmin, ymin, xmax, ymax] with max > min")
-        return xmin, ymin, xmax, ymax
-
-    def cells(self, value, boundary: np.ndarray) -> list[Cell]:
-        if value is None:
-            (xmin, ymin), (xmax, ymax) = boundary.min(axis=0), boundary.max(axis=0)
-            return [Cell("cell_0", (xmin, ymin, xmax, ymax), np.zeros((0, 2)))]
-        if not isinstance(value, list) or not value:
-            self.fail(
-                "cells",
-                "expected a non-empty list",
-                "list cells in visit order as {name, rect: [xmin, ymin, xmax, ymax]}",
-            )
-        cells = []
-        for index, item in enumerate(value):
-            item = self.mapping(item, f"cells[{index}]")
-            self.known_keys(item, {"name", "rect"}, f"cells[{index}].")
-            if "rect" not in item:
-                self.fail(f"cells[{index}].rect", "missing", "give the cell as [xmin, ymin, xmax, ymax]")
-            name = self.string(item.get("name", f"cell_{index}"), f"cells[{index}].name")
-            cells.append(Cell(name, self.rect(item["rect"], f"cells[{index}].rect"), np.zeros((0, 2))))
-        return cells
-
-    def start(self, value, default) -> tuple[float, float, float]:
-        if value is None:
-            if default is None:
-                self.fail("start", "missing", "give start: [x, y] or [x, y, heading] in metres / radians")
-            return default
-        if isinstance(value, list) and len(value) == 2:
-            value = [*value, 0.0]
-        x, y, heading = self.point(value, "start", size=3)
-        return x, y, heading
-
-
-def _cleared_cells(check: _Checker, value, cell_count: int) -> int:
+def _cleared_cells(check: FieldChecker, value, cell_count: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < cell_count:
         check.fail(
             "cleared_cells",
@@ -517,187 +371,7 @@ def _cleared_cells(check: _Checker, value, cell_count: int) -> int:
     return value
 
 
-def _signed_area(points: np.ndarray) -> float:
-    x, y = points[:, 0], points[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
-
-
-def _segments_cross(p1, p2, q1, q2) -> bool:
-    def orient(a, b, c):
-        return np.sign((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
-
-    return orient(p1, p2, q1) * orient(p1, p2, q2) < 0 and orient(q1, q2, p1) * orient(q1, q2, p2) < 0
-
-
-def _self_intersects(points: np.ndarray) -> bool:
-    n = len(points)
-    edges = [(points[i], points[(i + 1) % n]) for i in range(n)]
-    return any(
-        _segments_cross(*edges[i], *edges[j])
-        for i in range(n)
-        for j in range(i + 2, n)
-        if not (i == 0 and j == n - 1)  # neighbours share a corner
-    )
-
-
-def _rectangle(xmin: float, ymin: float, xmax: float, ymax: float) -> np.ndarray:
-    return np.array([[xmin, ymin], [xmax, ymin], [xmax, ymax], [xmin, ymax]], dtype=float)
-
-
-def _build_cabin(check: _Checker, block: dict, robot: RobotSpec):
-    """Seat rows across a rectangular cabin floor.
-
-    Along x: a free ``front_clearance`` zone, then ``rows`` pitch slots, each a legroom gap of
-    ``seat_pitch - seat_depth`` followed by the seat block (depth ``seat_depth``), then a free
-    ``rear_clearance`` zone. Across y: seat blocks attached to the side walls, separated by aisles;
-    ``seat_blocks`` gives the seats per block (port to starboard) and the blocks share the width
-    left by the aisles in proportion to their seats, unless ``block_widths`` fixes them.
-    Cells group ``rows_per_cell`` rows; their goals are the wall-side dead ends of each legroom
-    gap in the cell (the seed's white cubes) and the middle of gaps between two aisles.
-    """
-    block = check.mapping(block, "cabin")
-    check.known_keys(block, _CABIN_KEYS, "cabin.")
-    for required in ("width", "seat_blocks", "aisle_width", "rows", "seat_pitch", "seat_depth"):
-        if required not in block:
-            check.fail(f"cabin.{required}", "missing", f"add cabin.{required} (see layouts/a320_cell.yaml)")
-    width = check.number(block["width"], "cabin.width")
-    seats = block["seat_blocks"]
-    if (
-        not isinstance(seats, list)
-        or not seats
-        or not all(isinstance(s, int) and not isinstance(s, bool) and s > 0 for s in seats)
-    ):
-        check.fail(
-            "cabin.seat_blocks",
-            f"expected a list of seat counts, got {seats!r}",
-            "write e.g. [3, 3] or [3, 4, 3]",
-        )
-    aisle = check.number(block["aisle_width"], "cabin.aisle_width")
-    rows = check.positive_int(block["rows"], "cabin.rows")
-    pitch = check.number(block["seat_pitch"], "cabin.seat_pitch")
-    depth = check.number(block["seat_depth"], "cabin.seat_depth")
-    rows_per_cell = check.positive_int(block.get("rows_per_cell", rows), "cabin.rows_per_cell")
-    front = check.number(block.get("front_clearance", 0.0), "cabin.front_clearance", allow_zero=True)
-    rear = check.number(block.get("rear_clearance", 0.0), "cabin.rear_clearance", allow_zero=True)
-    if depth >= pitch:
-        check.fail(
-            "cabin.seat_depth",
-            f"{depth} leaves no legroom at pitch {pitch}",
-            "make seat_depth smaller than seat_pitch",
-        )
-    if rows % rows_per_cell:
-        check.fail(
-            "cabin.rows_per_cell",
-            f"{rows} rows do not split into cells of {rows_per_cell}",
-            "use a divisor of rows",
-        )
-    seats_width = width - aisle * (len(seats) - 1)
-    if "block_widths" in block:
-        widths = block["block_widths"]
-        if not isinstance(widths, list) or len(widths) != len(seats):
-            check.fail("cabin.block_widths", f"expected {len(seats)} widths", "give one width per seat block")
-        widths = [check.number(w, f"cabin.block_widths[{i}]") for i, w in enumerate(widths)]
-        if abs(sum(widths) - seats_width) > 1e-6:
-            check.fail(
-                "cabin.block_widths",
-                f"blocks {sum(widths):.3f} m + aisles do not make the width {width} m",
-                f"make the widths sum to {seats_width:.3f}",
-            )
-    else:
-        widths = [seats_width * s / sum(seats) for s in seats]
-    if seats_width <= 0:
-        check.fail(
-            "cabin.aisle_width", "the aisles take the whole width", "narrow the aisles or widen the cabin"
-        )
-
-    length = front + rows * pitch + rear
-    legroom = pitch - depth
-    block_spans, aisle_spans, y = [], [], 0.0
-    for index, block_width in enumerate(widths):
-        block_spans.append((y, y + block_width))
-        y += block_width
-        if index < len(widths) - 1:
-            aisle_spans.append((y, y + aisle))
-            y += aisle
-    obstacles, cells = [], []
-    for row in range(rows):
-        seat_start = front + row * pitch + legroom
-        obstacles += [_rectangle(seat_start, lo, seat_start + depth, hi) for lo, hi in block_spans]
-    inset = robot.radius + 0.02  # goal cubes sit where the robot centre can just reach
-    for cell_index in range(rows // rows_per_cell):
-        first_row = cell_index * rows_per_cell
-        xmin = 0.0 if cell_index == 0 else front + first_row * pitch
-        xmax = length if first_row + rows_per_cell == rows else front + (first_row + rows_per_cell) * pitch
-        goals = []
-        for row in range(first_row, first_row + rows_per_cell):
-            gap_x = front + row * pitch + legroom / 2
-            for index, (lo, hi) in enumerate(block_spans):
-                if index == 0:
-                    goals.append((gap_x, lo + inset))
-                elif index == len(block_spans) - 1:
-                    goals.append((gap_x, hi - inset))
-                else:
-                    goals.append((gap_x, (lo + hi) / 2))
-        cells.append(Cell(f"cell_{cell_index}", (xmin, 0.0, xmax, width), np.array(goals, dtype=float)))
-    start_x = front / 2 if front >= 2 * robot.radius else front + legroom / 2
-    start = (start_x, sum(aisle_spans[0]) / 2 if aisle_spans else width / 2, 0.0)
-    return _rectangle(0.0, 0.0, length, width), obstacles, cells, start
-
-
-def _build_grid(check: _Checker, block: dict):
-    """ASCII map: each ``#`` a square obstacle of ``cell_size``; the first text line is the top row."""
-    block = check.mapping(block, "grid")
-    check.known_keys(block, {"cell_size", "map"}, "grid.")
-    cell_size = check.number(block.get("cell_size"), "grid.cell_size")
-    text = block.get("map")
-    if not isinstance(text, str) or not text.strip():
-        check.fail("grid.map", "empty map", "write rows of '#' (obstacle), '.' (free) and 'S' (start)")
-    lines = [line.strip() for line in text.strip().splitlines()]
-    if any(len(line) != len(lines[0]) for line in lines):
-        lengths = sorted({len(line) for line in lines})
-        check.fail(
-            "grid.map", f"ragged rows (lengths {lengths})", "make every row the same number of characters"
-        )
-    bad = set("".join(lines)) - set("#.S")
-    if bad:
-        check.fail("grid.map", f"unknown characters {sorted(bad)}", "use only '#', '.' and 'S'")
-    rows, cols = len(lines), len(lines[0])
-    obstacles, start = [], None
-    for text_row, line in enumerate(lines):
-        y0 = (rows - 1 - text_row) * cell_size
-        col = 0
-        while col < cols:  # merge runs of '#' into one rectangle: fewer edges for the lidar
-            if line[col] == "#":
-                end = col
-                while end < cols and line[end] == "#":
-                    end += 1
-                obstacles.append(_rectangle(col * cell_size, y0, end * cell_size, y0 + cell_size))
-                col = end
-            else:
-                if line[col] == "S":
-                    start = ((col + 0.5) * cell_size, y0 + 0.5 * cell_size, 0.0)
-                col += 1
-    if len(obstacles) and sum(line.count("#") for line in lines) == rows * cols:
-        check.fail("grid.map", "no free cell", "mark free floor with '.'")
-    return _rectangle(0.0, 0.0, cols * cell_size, rows * cell_size), obstacles, start
-
-
-def _build_polygons(check: _Checker, block: dict):
-    block = check.mapping(block, "polygons")
-    check.known_keys(block, {"boundary", "obstacles"}, "polygons.")
-    if "boundary" not in block:
-        check.fail("polygons.boundary", "missing", "give the outer outline as [[x, y], ...]")
-    boundary = check.polygon(block["boundary"], "polygons.boundary")
-    obstacles_spec = block.get("obstacles", [])
-    if not isinstance(obstacles_spec, list):
-        check.fail(
-            "polygons.obstacles", "expected a list of polygons", "write obstacles: [[[x, y], ...], ...]"
-        )
-    obstacles = [check.polygon(p, f"polygons.obstacles[{i}]") for i, p in enumerate(obstacles_spec)]
-    return boundary, obstacles
-
-
-def _assign_goals(check: _Checker, value, cells: list[Cell]) -> list[Cell]:
+def _assign_goals(check: FieldChecker, value, cells: list[Cell]) -> list[Cell]:
     """Explicit goal points replace the defaults; each goes to the cell that contains it."""
     if not isinstance(value, list):
         check.fail("goals", "expected a list of [x, y] points", "write goals: [[x, y], ...]")
@@ -714,7 +388,7 @@ def _assign_goals(check: _Checker, value, cells: list[Cell]) -> list[Cell]:
     return [Cell(c.name, c.rect, np.array(g, dtype=float).reshape(-1, 2)) for c, g in zip(cells, per_cell)]
 
 
-def _validate_geometry(check: _Checker, layout: Layout):
+def _validate_geometry(check: FieldChecker, layout: Layout):
     x, y, _ = layout.start
     xmin, ymin, xmax, ymax = layout.extent
     if not PolygonPath(layout.boundary).contains_point((x, y)):
@@ -815,7 +489,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(changes[::2], changes[1::2]))
 
 
-def _validate_reachability(check: _Checker, layout: Layout):
+def _validate_reachability(check: FieldChecker, layout: Layout):
     centre_free = layout.centre_free
     distance_to_reachable = ndimage.distance_transform_edt(~centre_free) * RESOLUTION
     for cell_index, cell in enumerate(layout.cells):
@@ -830,7 +504,8 @@ def _validate_reachability(check: _Checker, layout: Layout):
             if not layout.free_raster[iy, ix] or distance_to_reachable[iy, ix] > layout.robot.radius:
                 check.fail(
                     "goals",
-                    f"goal {goal_index} of cell '{cell.name}' at ({x:.2f}, {y:.2f}) is out of the robot's reach",
+                    f"goal {goal_index} of cell '{cell.name}' at ({x:.2f}, {y:.2f}) "
+                    "is out of the robot's reach",
                     "move it where the robot can drive over it",
                 )
     for index, (here, there) in enumerate(zip(layout.cells, layout.cells[1:])):

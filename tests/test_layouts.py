@@ -2,11 +2,12 @@
 names the file, the field and the fix."""
 
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from cabinbench.layout import LayoutError, available_layouts, load_layout, parse_layout
+from cabinbench.layout import LayoutError, available_layouts, builtin_layout_dir, load_layout, parse_layout
 
 BUILTIN = [
     "a320_cell",
@@ -105,11 +106,28 @@ BROKEN = {
         "grid.map",
         "ragged rows",
     ),
+    "two start markers": (
+        "kind: grid\ngrid:\n  cell_size: 0.35\n  map: |\n    S..\n    ..S\n",
+        "grid.map",
+        "2 start cells",
+    ),
+    "no cell holds the robot": (
+        "kind: grid\ngrid:\n  cell_size: 0.35\n  map: |\n    .....\n",
+        "grid.map",
+        "no free cell holds the robot",
+    ),
+    "kind block missing": ("kind: grid\n", "grid", "missing"),
+    "cells of a cabin": (
+        Path(builtin_layout_dir() / "a320_cell.yaml").read_text() + "cells: [{rect: [0, 0, 1, 1]}]\n",
+        "cells",
+        "derive their cells",
+    ),
     "not yaml": ("kind: [grid\n  : :", "<file>", "not valid YAML"),
     "not a mapping": ("- just\n- a list\n", "<file>", "not a mapping"),
     "unknown kind": ("kind: maze\n", "kind", "cabin, grid, polygons"),
     "cabin without legroom": (
-        "kind: cabin\ncabin: {width: 3.7, seat_blocks: [3, 3], aisle_width: 0.48, rows: 2, seat_pitch: 0.8, seat_depth: 0.9}\n",
+        "kind: cabin\ncabin: {width: 3.7, seat_blocks: [3, 3], aisle_width: 0.48, rows: 2, "
+        "seat_pitch: 0.8, seat_depth: 0.9}\n",
         "cabin.seat_depth",
         "no legroom",
     ),
@@ -145,3 +163,31 @@ def test_coverable_area_is_free_space_reachable_by_the_disc():
     missed = away_from_walls & ~coverable
     assert missed.sum() < 0.02 * away_from_walls.sum()
     assert 0.85 * layout.free_area < layout.coverable_area < 0.95 * layout.free_area
+
+
+def test_grid_without_start_marker_starts_nearest_the_centre_where_the_robot_fits():
+    """The centre cell is an obstacle and its four neighbours are too narrow for the 0.35 m robot on
+    0.35 m cells; of the four diagonal cells, equally near, the first in reading order wins."""
+    rows = ".....", ".....", "..#..", ".....", "....."
+    layout = parse_layout(
+        "kind: grid\ngrid:\n  cell_size: 0.35\n  map: |\n" + "".join(f"    {row}\n" for row in rows)
+    )
+    assert layout.start == pytest.approx((1.5 * 0.35, 3.5 * 0.35, 0.0))  # text row 1, column 1
+    with_marker = (builtin_layout_dir() / "paper_matrix_a.yaml").read_text()
+    assert "..S.." in with_marker  # the study's Matrix A marks the centre
+    assert parse_layout(with_marker.replace("S", ".")).start == load_layout("paper_matrix_a").start
+
+
+@pytest.mark.parametrize(
+    ("contents", "problem"),
+    [(b"kind: grid\n# caf\xe9\n", "not UTF-8 text (line 2)"), (None, "is a folder")],
+)
+def test_unreadable_layout_file_is_named(tmp_path, contents, problem):
+    path = tmp_path / "room.yaml"
+    if contents is None:
+        path.mkdir()
+    else:
+        path.write_bytes(contents)
+    with pytest.raises(LayoutError) as raised:
+        load_layout(path)
+    assert str(raised.value).startswith(f"{path}: field '<file>': {problem}. Fix: ")
