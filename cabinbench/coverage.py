@@ -1,8 +1,9 @@
-"""The coverage raster, compiled with numba: stamping the robot's footprint, and the robot's view of it.
+"""The coverage raster: stamping the robots' footprints (compiled with numba), and the robot's view of it.
 
-Each pixel counts the passes over it: a pass starts when the pixel enters the footprint (it is
-under the disc now and was not at the previous pose). The metrics module turns these counts
-into coverage and overlap; :func:`stamp_footprint` only keeps them up to date and reports what is new.
+:class:`CoverageRaster` is one episode's bookkeeping: each pixel counts the passes over it, a pass
+starting when the pixel enters the footprint (it is under the disc now and was not at the previous
+pose). The metrics module turns these counts into coverage and overlap; :func:`stamp_footprint`
+only keeps them up to date and reports what is new.
 
 :class:`CoveragePatch` is the optional part of the observation that shows the robot which floor
 near it is still uncleaned (DESIGN: "an egocentric local patch of the coverage raster"). A real
@@ -15,18 +16,70 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
 from numba import njit
+
+from .layout import RESOLUTION, Layout
 
 PATCH_SAMPLES = 3  # samples per patch cell and axis: a 0.25 m cell is read on a 3 x 3 grid
 
 
+class CoverageRaster:
+    """The pass counts of one episode on the layout's raster, the covered totals, and per cell the
+    covered coverable pixels (what the protocol checks a cell without goals against)."""
+
+    def __init__(self, layout: Layout):
+        self.layout = layout
+        self.floor_mask = layout.free_raster
+        self.coverable_mask = layout.coverable_raster
+        self.cell_of = layout.cell_raster
+        self.coverable_by_cell = np.bincount(
+            self.cell_of[self.coverable_mask & (self.cell_of >= 0)], minlength=len(layout.cells)
+        )
+        self.coverable_pixels = int(self.coverable_mask.sum())
+
+    def reset(self) -> None:
+        self.pass_count = np.zeros(self.layout.raster_shape, dtype=np.uint16)
+        self.covered_by_cell = np.zeros(len(self.layout.cells), dtype=np.int64)
+        self.covered_floor_pixels = 0
+        self.covered_coverable_pixels = 0
+
+    @property
+    def coverage(self) -> float:
+        return self.covered_coverable_pixels / self.coverable_pixels
+
+    def stamp(self, x: float, y: float, previous_x: float, previous_y: float) -> int:
+        """Cover a robot's footprint at (x, y), coming from the previous pose (NaN: none); returns the
+        newly covered coverable pixels."""
+        origin_x, origin_y = self.layout.origin
+        new_floor, new_coverable = stamp_footprint(
+            self.pass_count,
+            self.floor_mask,
+            self.coverable_mask,
+            self.cell_of,
+            self.covered_by_cell,
+            x,
+            y,
+            previous_x,
+            previous_y,
+            self.layout.robot.radius,
+            origin_x,
+            origin_y,
+            RESOLUTION,
+        )
+        self.covered_floor_pixels += new_floor
+        self.covered_coverable_pixels += new_coverable
+        return new_coverable
+
+
 @dataclass(frozen=True)
 class CoveragePatch:
-    """A square window of ``cells`` x ``cells`` cells of ``cell_size`` metres, centred on the robot and turned with
-    it. Each entry is the fraction of its cell that is coverable floor not yet covered (sampled on a
-    ``PATCH_SAMPLES`` grid). Rows run from behind the robot to ahead of it, columns from its right to its left.
-    Only floor the robot may clean now counts: in ``sequential`` the current cell, and the next one once its
-    passage is open; never the cells the layout starts cleared. ``cells = 0``: no patch."""
+    """A square window of ``cells`` x ``cells`` cells of ``cell_size`` metres, centred on the robot and
+    turned with it. Each entry is the fraction of its cell that is coverable floor not yet covered
+    (sampled on a ``PATCH_SAMPLES`` grid). Rows run from behind the robot to ahead of it, columns from
+    its right to its left. Only floor the robot may clean now counts: in ``sequential`` the current
+    cell, and the next one once its passage is open; never the cells the layout starts cleared.
+    ``cells = 0``: no patch."""
 
     cells: int = 0
     cell_size: float = 0.25
@@ -65,8 +118,9 @@ def write_coverage_patch(
     origin_y,
     resolution,
 ):
-    """Write the :class:`CoveragePatch` of a robot at (x, y, heading) into ``out[start : start + cells**2]``.
-    ``cell_visible[c]`` says whether cell ``c``'s floor counts; ``outside_visible`` the same for floor in no cell."""
+    """Write the :class:`CoveragePatch` of a robot at (x, y, heading) into ``out[start : start +
+    cells**2]``. ``cell_visible[c]`` says whether cell ``c``'s floor counts; ``outside_visible`` the
+    same for floor in no cell."""
     rows, cols = pass_count.shape
     samples = cells * PATCH_SAMPLES  # per side
     step = cell_size / PATCH_SAMPLES / resolution  # in pixels

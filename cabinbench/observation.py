@@ -13,14 +13,20 @@ A robot's observation is, in this order:
 ``observation_layout`` maps each part's name to its ``slice``; the slices tile the vector. The
 envs expose it as ``env.unwrapped.observation_layout`` and baselines get it as
 ``EpisodeContext.observation_layout``: read observations through it, never through offsets of
-their own.
+their own. :func:`write_observation` writes the lidar and velocity parts (the world writes the
+coverage patch with :func:`cabinbench.coverage.write_coverage_patch`).
+
+DESIGN.md names the lidar's parts ``lidar_distance`` and ``lidar_tags``; they are not slices here
+because the observation interleaves them per ray (the shipped policies were trained on that
+order): read them with :func:`lidar_channel` / :func:`lidar_rays`.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
-from .lidar import TAGS
+from .lidar import TAGS, cast_rays, encode_scan
 
 LIDAR_CHANNELS = ("distance", *TAGS)  # the values of one ray, in order
 
@@ -50,3 +56,55 @@ def lidar_rays(observation: np.ndarray, layout: dict[str, slice]) -> np.ndarray:
 def lidar_channel(observation: np.ndarray, layout: dict[str, slice], channel: str) -> np.ndarray:
     """One channel of every ray, e.g. ``"distance"`` or ``"robot"``: shape (..., n_rays)."""
     return lidar_rays(observation, layout)[..., LIDAR_CHANNELS.index(channel)]
+
+
+@njit(cache=True)
+def write_observation(
+    out,
+    index,
+    poses,
+    velocities,
+    max_speed,
+    max_turn_rate,
+    ray_angles,
+    max_range,
+    segments,
+    segment_tags,
+    segment_on,
+    circles,
+    circle_tags,
+    circle_on,
+    noise,
+    velocity_at,
+):
+    """The lidar and velocity parts of robot ``index``'s observation, in one compiled call: its scan
+    (its own disc contains the ray origin, so the cast skips it) with range ``noise`` added (empty:
+    none), then its velocities (``velocity_at``: where the velocity part starts). The last
+    ``len(poses)`` discs of ``circles`` are the robots: they are placed at ``poses`` first."""
+    first_robot = circles.shape[0] - poses.shape[0]
+    for robot in range(poses.shape[0]):
+        circles[first_robot + robot, 0], circles[first_robot + robot, 1] = poses[robot, 0], poses[robot, 1]
+    n_rays = ray_angles.shape[0]
+    distances, tags = np.empty(n_rays), np.empty(n_rays, dtype=np.int8)
+    cast_rays(
+        poses[index, 0],
+        poses[index, 1],
+        poses[index, 2],
+        ray_angles,
+        max_range,
+        segments,
+        segment_tags,
+        segment_on,
+        circles,
+        circle_tags,
+        circle_on,
+        distances,
+        tags,
+    )
+    if noise.shape[0] > 0:
+        for r in range(n_rays):
+            distances[r] = min(max(distances[r] + noise[r], 0.0), max_range)
+    encode_scan(distances, tags, max_range, out)
+    # contacts can push a robot a little faster than commanded: keep the entries in [-1, 1]
+    out[velocity_at] = min(1.0, max(-1.0, velocities[index, 0] / max_speed))
+    out[velocity_at + 1] = min(1.0, max(-1.0, velocities[index, 1] / max_turn_rate))

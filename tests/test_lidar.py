@@ -10,9 +10,9 @@ import pytest
 
 from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.lidar import BOUND, EXIT, GOAL, NO_HIT, OBSTACLE, ROBOT, cast_rays
-from cabinbench.world import _BOUND_TYPE, _WALL_TYPE
+from cabinbench.physics import BOUND_TYPE, WALL_TYPE
 
-SEGMENT_TAGS = {_WALL_TYPE: OBSTACLE, _BOUND_TYPE: BOUND}
+SEGMENT_TAGS = {WALL_TYPE: OBSTACLE, BOUND_TYPE: BOUND}
 
 
 def pymunk_scan(
