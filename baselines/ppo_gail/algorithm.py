@@ -2,19 +2,22 @@
 
 This is the learning baseline of the study: PPO whose reward is shaped by two learned signals,
 
-- an intrinsic curiosity reward from an Intrinsic Curiosity Module (Pathak et al. 2017; the study's Eq. 4.23-4.28),
+- an intrinsic curiosity reward from an Intrinsic Curiosity Module (Pathak et al. 2017; the study's Eq.
+  4.23-4.28),
 - an imitation reward from a GAIL discriminator trained on expert demonstrations (Ho & Ermon 2016; the study's
   §4.2.7).
 
-It is a subclass of rsl-rl's ``PPO`` and plugs into the unmodified ``OnPolicyRunner`` through the algorithm hooks the
-runner calls:
+It is a subclass of rsl-rl's ``PPO`` and plugs into the unmodified ``OnPolicyRunner`` through the algorithm
+hooks the runner calls:
 
-- ``process_env_step``: adds the curiosity and GAIL rewards of the transition (s_t, a_t, s_t+1) to the environment
-  reward before PPO stores it (and before PPO's time-out bootstrapping, which does not care about the order);
+- ``process_env_step``: adds the curiosity and GAIL rewards of the transition (s_t, a_t, s_t+1) to the
+  environment reward before PPO stores it (and before PPO's time-out bootstrapping, which does not care
+  about the order);
 - ``update``: trains the ICM and the discriminator on the rollout just collected, then runs the PPO update;
 - ``save`` / ``load``: add the ICM and discriminator weights and optimiser states to the checkpoint dict.
 
-The four ablations of the study are this one class with different flags, see ``ABLATIONS`` and ``make_train_cfg``.
+The four ablations of the study are this one class with different flags, see ``ABLATIONS`` and
+``make_train_cfg``.
 """
 
 from __future__ import annotations
@@ -46,11 +49,13 @@ ABLATIONS = {
     "ppo_gail": {"use_curiosity": True, "use_gail": True},
 }
 """The study's ablations: which reward signals are added to PPO."""
+REWARD_SIGNALS = tuple(ABLATIONS["ppo_gail"])  # ("use_curiosity", "use_gail")
 
 ACTION_LIMIT = 1.0
-"""Actions are in [-1, 1] (the demonstration schema; the environment clips). PPO samples from an unbounded Gaussian,
-so agent actions are clipped to this range before the ICM and the discriminator see them: they must see the action
-that was executed, and an out-of-range action would let the discriminator spot the agent trivially."""
+"""Actions are in [-1, 1] (the demonstration schema; the environment clips). PPO samples from an unbounded
+Gaussian, so agent actions are clipped to this range before the ICM and the discriminator see them: they must
+see the action that was executed, and an out-of-range action would let the discriminator spot the agent
+trivially."""
 
 STUDY_PPO = {
     "gamma": 0.99,
@@ -60,9 +65,10 @@ STUDY_PPO = {
     "learning_rate": 3.0e-4,
     "num_learning_epochs": 3,
 }
-"""PPO hyperparameters of the study (Table 5.2/5.3). ``make_train_cfg`` uses rsl-rl's "fixed" learning-rate schedule
-so the rate stays at the study's 3e-4; rsl-rl's default "adaptive" schedule would move it to track a target KL.
-All reward signals share the one discount ``gamma``: rsl-rl's storage holds a single reward stream."""
+"""PPO hyperparameters of the study (Table 5.2/5.3). ``make_train_cfg`` uses rsl-rl's "fixed" learning-rate
+schedule so the rate stays at the study's 3e-4; rsl-rl's default "adaptive" schedule would move it to track a
+target KL. All reward signals share the one discount ``gamma``: rsl-rl's storage holds a single reward
+stream."""
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -73,8 +79,9 @@ All reward signals share the one discount ``gamma``: rsl-rl's storage holds a si
 class RunningStd(nn.Module):
     """Running standard deviation of a scalar stream (parallel-variance update of Chan et al.).
 
-    Updates are in-place on the buffers: the runner collects rollouts under ``torch.inference_mode``, and in-place
-    updates keep the buffers ordinary tensors that can later be saved, loaded and used outside inference mode.
+    Updates are in-place on the buffers: the runner collects rollouts under ``torch.inference_mode``, and
+    in-place updates keep the buffers ordinary tensors that can later be saved, loaded and used outside
+    inference mode.
     """
 
     def __init__(self) -> None:
@@ -113,13 +120,13 @@ class IntrinsicCuriosityModule(nn.Module):
     """Intrinsic Curiosity Module (Pathak et al. 2017, §2.2; the study's Eq. 4.23-4.28).
 
     - Feature encoder phi(s).
-    - Inverse model g(phi(s_t), phi(s_t+1)) -> a_hat_t, loss L_I = ||a_hat_t - a_t||^2 (continuous actions: squared
-      error instead of the paper's cross-entropy over discrete actions).
+    - Inverse model g(phi(s_t), phi(s_t+1)) -> a_hat_t, loss L_I = ||a_hat_t - a_t||^2 (continuous actions:
+      squared error instead of the paper's cross-entropy over discrete actions).
     - Forward model f(phi(s_t), a_t) -> phi_hat(s_t+1), loss L_F = 1/2 ||phi_hat(s_t+1) - phi(s_t+1)||^2.
     - Surprise 1/2 ||phi_hat(s_t+1) - phi(s_t+1)||^2, the intrinsic reward before scaling by eta.
 
-    The encoder is trained by both losses, as in Pathak's reference implementation; the (1 - beta) weight on the
-    inverse loss keeps phi informative about the action instead of collapsing to what is easy to predict.
+    The encoder is trained by both losses, as in Pathak's reference implementation; the (1 - beta) weight on
+    the inverse loss keeps phi informative about the action instead of collapsing to what is easy to predict.
     """
 
     def __init__(
@@ -134,9 +141,10 @@ class IntrinsicCuriosityModule(nn.Module):
         self.encoder = MLP(observation_dim, encoding_size, hidden_dims, activation)
         self.forward_model = MLP(encoding_size + action_dim, encoding_size, hidden_dims, activation)
         self.inverse_model = MLP(2 * encoding_size, action_dim, hidden_dims, activation)
-        # The raw surprise scales with the size and drift of the learned features, which are arbitrary. Dividing it by
-        # its running std keeps the reward in units of "typical surprise", so that curiosity_strength means the same
-        # thing across environments and over training (as the RND reward normalisation of Burda et al. 2018 does).
+        # The raw surprise scales with the size and drift of the learned features, which are arbitrary.
+        # Dividing it by its running std keeps the reward in units of "typical surprise", so that
+        # curiosity_strength means the same thing across environments and over training (as the RND reward
+        # normalisation of Burda et al. 2018 does).
         self.surprise_std = RunningStd()
 
     def losses(
@@ -157,9 +165,9 @@ class IntrinsicCuriosityModule(nn.Module):
     ) -> torch.Tensor:
         """Surprise of each transition divided by its running std; zero where ``valid`` is False.
 
-        ``valid`` marks transitions whose ``next_states`` really follow ``states``. For an environment that is done,
-        the runner hands over the first observation of the next episode, whose prediction error is meaningless; it is
-        neither rewarded nor counted in the running std.
+        ``valid`` marks transitions whose ``next_states`` really follow ``states``. For an environment that is
+        done, the runner hands over the first observation of the next episode, whose prediction error is
+        meaningless; it is neither rewarded nor counted in the running std.
         """
         next_features = self.encoder(next_states)
         predicted_next_features = self.forward_model(torch.cat([self.encoder(states), actions], dim=-1))
@@ -176,12 +184,12 @@ class IntrinsicCuriosityModule(nn.Module):
 class GailDiscriminator(nn.Module):
     """GAIL discriminator D(s, a) = sigmoid(logit(s, a)) (Ho & Ermon 2016; the study's §4.2.7).
 
-    Trained to output 1 on expert pairs and 0 on agent pairs (Ho & Ermon use the opposite labels; only the sign of the
-    reward depends on it). The reward is the logit, log D - log(1 - D): positive where the agent looks like the expert,
-    negative where it does not. The more common -log(1 - D) is always positive, i.e. a bonus for every step survived,
-    and episodes here end on success, so it would teach the agent not to finish. The flip side: where an episode can
-    end in failure (a crash), a mostly negative GAIL reward makes ending early attractive unless the environment
-    penalises the failure.
+    Trained to output 1 on expert pairs and 0 on agent pairs (Ho & Ermon use the opposite labels; only the
+    sign of the reward depends on it). The reward is the logit, log D - log(1 - D): positive where the agent
+    looks like the expert, negative where it does not. The more common -log(1 - D) is always positive, i.e. a
+    bonus for every step survived, and episodes here end on success, so it would teach the agent not to
+    finish. The flip side: where an episode can end in failure (a crash), a mostly negative GAIL reward makes
+    ending early attractive unless the environment penalises the failure.
     """
 
     def __init__(
@@ -208,9 +216,9 @@ class GailDiscriminator(nn.Module):
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """Return the BCE loss, the gradient penalty and the classification accuracy on one batch.
 
-        The gradient penalty is the zero-centred R1 penalty E_expert ||grad_(s,a) logit||^2 (Mescheder et al. 2018).
-        It keeps the discriminator from becoming arbitrarily sharp around the expert data, which would make the reward
-        a cliff that carries no gradient information for the policy.
+        The gradient penalty is the zero-centred R1 penalty E_expert ||grad_(s,a) logit||^2 (Mescheder et al.
+        2018). It keeps the discriminator from becoming arbitrarily sharp around the expert data, which would
+        make the reward a cliff that carries no gradient information for the policy.
         """
         expert_inputs = torch.cat([expert_states, expert_actions], dim=-1).requires_grad_(True)
         expert_logits = self.network(expert_inputs).squeeze(-1)
@@ -234,18 +242,18 @@ class PPOCuriosityGail(PPO):
 
     The reward PPO optimises for the transition (s_t, a_t, s_t+1) is
 
-        r_t = r_env + curiosity_strength * surprise_t / std(surprise) + gail_strength * (logit D(s_t, a_t) - mean logit)
+        r_t = r_env + curiosity_strength * surprise_t / std(surprise)
+                    + gail_strength * (logit D(s_t, a_t) - mean logit)
 
-    where the mean is over the rollout (``compute_returns``): the logit is negative wherever the discriminator tells
-    the agent from the expert, nearly everywhere while it learns, so uncentred it pays the agent to end its episodes
-    early. Centred, it ranks the agent's actions without paying it to live or to die. Measured with the default
-    config, seed 0, 20 episodes each: ppo_gail's coverage of a320_cell rose from 0.53 to 0.60, and ppo_gail_only's
-    zero-shot coverage of full_cabin from 0.16 to 0.88 (9.6 of 10 cells cleared).
+    where the mean is over the rollout (``compute_returns``): the logit is negative wherever the discriminator
+    tells the agent from the expert, nearly everywhere while it learns, so uncentred it pays the agent to end
+    its episodes early. Centred, it ranks the agent's actions without paying it to live or to die (measured:
+    docs/experiments.md, "GAIL reward centring").
 
-    Either term is switched off by ``use_curiosity`` / ``use_gail``. Both modules see the concatenated observation
-    groups of the actor (the policy observation, which is also what the demonstrations record), or the
-    ``shaping_columns`` of it. The runner's logged episode reward stays the environment reward, so the ablations remain
-    comparable.
+    Either term is switched off by ``use_curiosity`` / ``use_gail``. Both modules see the concatenated
+    observation groups of the actor (the policy observation, which is also what the demonstrations record), or
+    the ``shaping_columns`` of it. The runner's logged episode reward stays the environment reward, so the
+    ablations remain comparable.
     """
 
     def __init__(
@@ -283,16 +291,17 @@ class PPOCuriosityGail(PPO):
             curiosity_learning_rate: Adam learning rate of the ICM.
             gail_strength: Scale of the GAIL reward.
             gail_hidden_dims: Hidden layers of the discriminator.
-            gail_gradient_penalty: Weight of the R1 gradient penalty on expert samples. Lower than the 5-10 used with
-                least-squares discriminators (AMP), whose outputs are smaller than BCE logits: on the point-mass
-                tests, a weight of 5-10 left ~18% of random (s, a) pairs classified as expert, a weight of 1 ~13%.
+            gail_gradient_penalty: Weight of the R1 gradient penalty on expert samples; lower than the 5-10
+                of least-squares discriminators (AMP), whose outputs are smaller than BCE logits
+                (docs/experiments.md).
             gail_learning_rate: Adam learning rate of the discriminator.
             expert_demonstrations: ``.npz`` files, see ``demonstrations.load_demonstrations``.
-            expected_observation_config: The environment's observation layout; demonstrations recorded with another
-                layout are rejected.
-            shaping_columns: The columns of the policy observation that the ICM and the discriminator see (None: all
-                of it). Training leaves out the coverage patch: the expert's patches show its own sweep, which the
-                discriminator would tell from the agent's by the patch alone, whatever the agent does.
+            expected_observation_config: The environment's observation layout; demonstrations recorded with
+                another layout are rejected.
+            shaping_columns: The columns of the policy observation that the ICM and the discriminator see
+                (None: all of it). Training leaves out the coverage patch: the expert's patches show its own
+                sweep, which the discriminator would tell from the agent's by the patch alone, whatever the
+                agent does.
             ppo_kwargs: Passed to ``PPO`` (gamma, lam, learning_rate, ..., device, multi_gpu_cfg).
         """
         super().__init__(actor, critic, storage, **ppo_kwargs)
@@ -322,8 +331,8 @@ class PPOCuriosityGail(PPO):
             self.curiosity_optimizer = torch.optim.Adam(
                 self.curiosity.parameters(), lr=curiosity_learning_rate
             )
-            # s_t+1 of each stored transition; RolloutStorage keeps only s_t. Allocated here, outside the runner's
-            # inference mode, so the buffer can be used for training.
+            # s_t+1 of each stored transition; RolloutStorage keeps only s_t. Allocated here, outside the
+            # runner's inference mode, so the buffer can be used for training.
             self.next_states = torch.zeros(*rollout_shape, shaping_dim, device=self.device)
             self.curiosity_rewards = torch.zeros(rollout_shape, device=self.device)
 
@@ -342,23 +351,23 @@ class PPOCuriosityGail(PPO):
             )
             self.gail_rewards = torch.zeros(rollout_shape, device=self.device)
 
-    # --- Rollout -----------------------------------------------------------------------------------------------------
+    # --- Rollout --------------------------------------------------------------------------------------------
 
     def process_env_step(
         self, obs: TensorDict, rewards: torch.Tensor, dones: torch.Tensor, extras: dict[str, torch.Tensor]
     ) -> None:
         """Add the curiosity and GAIL rewards of this step, then let PPO record the transition.
 
-        ``self.transition`` still holds s_t and a_t, recorded by ``act``; ``obs`` is s_t+1 except for environments
-        that are done, whose ``obs`` is already the first observation of their next episode. The curiosity reward
-        depends on s_t+1 and is therefore zero for done environments; the GAIL reward depends only on (s_t, a_t).
+        ``self.transition`` still holds s_t and a_t, recorded by ``act``; ``obs`` is s_t+1 except for
+        environments that are done, whose ``obs`` is already the first observation of their next episode. The
+        curiosity reward depends on s_t+1 and is therefore zero for done environments; the GAIL reward depends
+        only on (s_t, a_t).
         """
         step = self.storage.step
         states = self._shaping_observation(self.transition.observations)
         actions = self.transition.actions.clamp(-ACTION_LIMIT, ACTION_LIMIT)
-        shaped_rewards = (
-            rewards  # Not modified in place: the runner logs the environment reward after this call.
-        )
+        # not modified in place: the runner logs the environment reward after this call
+        shaped_rewards = rewards
 
         if self.curiosity is not None:
             next_states = self._shaping_observation(obs)
@@ -379,19 +388,17 @@ class PPOCuriosityGail(PPO):
 
     def compute_returns(self, obs: TensorDict) -> None:
         if self.discriminator is not None:
-            self.storage.rewards -= (
-                self.gail_rewards.mean()
-            )  # centre the GAIL reward (see the class docstring)
+            self.storage.rewards -= self.gail_rewards.mean()  # centred: see the class docstring
         super().compute_returns(obs)
 
-    # --- Learning ----------------------------------------------------------------------------------------------------
+    # --- Learning -------------------------------------------------------------------------------------------
 
     def update(self) -> dict[str, float]:
         """Train the ICM and the discriminator on the collected rollout, then run the PPO update.
 
-        Returns PPO's losses plus ``curiosity_forward``, ``curiosity_inverse``, ``curiosity_reward`` (mean per step)
-        and ``gail_discriminator``, ``gail_gradient_penalty``, ``gail_accuracy``, ``gail_reward`` (mean per step) for
-        the enabled modules; the runner logs them all under ``Loss/``.
+        Returns PPO's losses plus ``curiosity_forward``, ``curiosity_inverse``, ``curiosity_reward`` (mean per
+        step) and ``gail_discriminator``, ``gail_gradient_penalty``, ``gail_accuracy``, ``gail_reward`` (mean
+        per step) for the enabled modules; the runner logs them all under ``Loss/``.
         """
         extra_losses = {}
         if self.curiosity is not None or self.discriminator is not None:
@@ -412,7 +419,8 @@ class PPOCuriosityGail(PPO):
     def update_curiosity(
         self, states: torch.Tensor, actions: torch.Tensor, next_states: torch.Tensor
     ) -> dict[str, float]:
-        """Minimise (1 - beta) L_I + beta L_F (Pathak et al. 2017, Eq. 7) over PPO's epochs and mini-batches."""
+        """Minimise (1 - beta) L_I + beta L_F (Pathak et al. 2017, Eq. 7) over PPO's epochs and
+        mini-batches."""
         forward_losses, inverse_losses = [], []
         for _ in range(self.num_learning_epochs):
             for batch in self._mini_batch_indices(states.shape[0]):
@@ -429,7 +437,8 @@ class PPOCuriosityGail(PPO):
         return {"curiosity_forward": _mean(forward_losses), "curiosity_inverse": _mean(inverse_losses)}
 
     def update_discriminator(self, states: torch.Tensor, actions: torch.Tensor) -> dict[str, float]:
-        """Train D to tell expert pairs (label 1) from the agent's (label 0) over PPO's epochs and mini-batches.
+        """Train D to tell expert pairs (label 1) from the agent's (label 0) over PPO's epochs and
+        mini-batches.
 
         Each agent mini-batch is paired with an equally large random sample of expert pairs.
         """
@@ -458,7 +467,7 @@ class PPOCuriosityGail(PPO):
             "gail_accuracy": _mean(accuracies),
         }
 
-    # --- Checkpoints -------------------------------------------------------------------------------------------------
+    # --- Checkpoints ----------------------------------------------------------------------------------------
 
     def save(self) -> dict:
         """PPO's checkpoint dict plus the ICM and discriminator weights and optimiser states.
@@ -487,11 +496,11 @@ class PPOCuriosityGail(PPO):
             self.discriminator_optimizer.load_state_dict(loaded_dict["discriminator_optimizer_state_dict"])
         return load_iteration
 
-    # --- Helpers -----------------------------------------------------------------------------------------------------
+    # --- Helpers --------------------------------------------------------------------------------------------
 
     def _shaping_observation(self, obs: TensorDict) -> torch.Tensor:
-        """What the ICM and D see of an observation: the actor's observation groups concatenated (the observation
-        the demonstrations record), restricted to ``shaping_columns``."""
+        """What the ICM and D see of an observation: the actor's observation groups concatenated (the
+        observation the demonstrations record), restricted to ``shaping_columns``."""
         return self._shaping_part(torch.cat([obs[group] for group in self._raw_actor.obs_groups], dim=-1))
 
     def _shaping_part(self, observations: torch.Tensor) -> torch.Tensor:

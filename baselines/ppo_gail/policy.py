@@ -1,31 +1,33 @@
-"""The learned baselines ``ppo_gail``, ``ppo``, ``ppo_icm`` and ``ppo_gail_only``: shipped policies, plain torch.
+"""The learned baselines ppo_gail, ppo, ppo_icm and ppo_gail_only: their shipped policies, in plain torch.
 
-Each baseline loads its policy file (default ``baselines/ppo_gail/checkpoints/<ablation>.pt``, or ``checkpoint=``
-in its config, e.g. ``--config '{"checkpoint": "runs/train/ppo_gail__seed0/policy.pt"}'``) once, checks that it was
-trained on observations shaped like the env's, and samples its actions from the trained Gaussian policy
-(mean + action_std * noise, clipped to [-1, 1]), with a generator seeded by the episode seed and the robot's index,
-so episodes stay reproducible. Sampling is the default, as in ML-Agents' inference that the seed used: a memoryless
-policy acting deterministically in a deterministic env can loop forever in the same place (measured with an earlier,
-lidar-only ppo_gail: its mean action cleared 1 of 10 full_cabin cells, sampling about 9; the shipped ppo_gail, which
-also sees the coverage patch, clears 9 with its mean action and all 10 sampled). ``stochastic=False`` takes the mean
-action.
+Each baseline loads its policy file (default ``baselines/ppo_gail/checkpoints/<ablation>.pt``, or
+``checkpoint=`` in its config, e.g. ``--config '{"checkpoint": "runs/train/ppo_gail__seed0/policy.pt"}'``)
+once, checks that it was trained on observations shaped like the env's, and samples its actions from the
+trained Gaussian policy (mean + action_std * noise, clipped to [-1, 1]), with a generator seeded by the
+episode seed and the robot's index, so episodes stay reproducible. Sampling is the default, as in ML-Agents'
+inference that the seed used: a memoryless policy acting deterministically in a deterministic env can loop
+forever in the same place (docs/experiments.md, "Sampled or mean actions"). ``stochastic=False`` takes the
+mean action.
 
-A policy file is small (a few hundred KB) and loads with ``torch.load(path, weights_only=True)``: a dict of plain
-values and tensors, written by ``export_policy`` at the end of training (``baselines.ppo_gail.training``)::
+A policy file is small (a few hundred KB) and loads with ``torch.load(path, weights_only=True)``: a dict of
+plain values and tensors, written by ``export_policy`` at the end of training
+(``baselines.ppo_gail.training``)::
 
     format              "cabinbench-policy/1"
     ablation            "ppo_gail" | "ppo" | "ppo_icm" | "ppo_gail_only"
-    actor               {"hidden_dims": [64, 64], "activation": "elu", "observation_size": 642, "action_size": 2,
-                         "state_dict": the MLP's weights, rsl-rl's key names ("0.weight", "0.bias", "2.weight", ...)}
+    actor               {"hidden_dims": [64, 64], "activation": "elu", "observation_size": D,
+                         "action_size": 2,
+                         "state_dict": the MLP's weights, rsl-rl's key names ("0.weight", "0.bias", ...)}
     obs_normalizer      {"mean": [D], "std": [D], "eps": float} or None (rsl-rl's EmpiricalNormalization)
     action_std          [A], the Gaussian policy's std at the end of training (used only with ``stochastic``)
-    observation_config  the observation settings the policy was trained with (``CoverageEnv.observation_config``):
-                        ``run`` makes the env with them (``env_options``)
+    observation_config  the observation settings the policy was trained with, and D
+                        (``CoverageEnv.observation_config``); ``run`` makes the env with them
+                        (``env_options``)
     env_config          the training envs' layouts, reward preset, terminate_on_bound, max_steps
     training            the training summary: iterations, steps, time, final coverage and success ...
 
-The actor is rebuilt here from its saved architecture in plain torch (no rsl-rl import), and reproduces rsl-rl's
-inference policy exactly (tested).
+The actor is rebuilt here from its saved architecture in plain torch (no rsl-rl import), and reproduces
+rsl-rl's inference policy exactly (tested).
 """
 
 from __future__ import annotations
@@ -67,8 +69,9 @@ class PolicyFileError(ValueError):
 class Actor(nn.Module):
     """Observation normaliser + MLP, the deterministic part of rsl-rl's ``MLPModel`` with a Gaussian head.
 
-    ``forward(observations [B, D]) -> mean actions [B, A]`` (not clipped). The layers are an ``nn.Sequential`` named
-    like rsl-rl's ``MLP`` (Linear, activation, Linear, ..., Linear), so rsl-rl's state dict loads as it is.
+    ``forward(observations [B, D]) -> mean actions [B, A]`` (not clipped). The layers are an ``nn.Sequential``
+    named like rsl-rl's ``MLP`` (Linear, activation, Linear, ..., Linear), so rsl-rl's state dict loads as it
+    is.
     """
 
     def __init__(
@@ -154,8 +157,8 @@ def export_policy(
 
 
 def atomic_torch_save(obj, path: Path) -> None:
-    """Write ``obj`` to ``path`` via a temporary file and ``os.replace``: a reader (or an interruption) never sees a
-    half-written file."""
+    """Write ``obj`` to ``path`` via a temporary file and ``os.replace``: a reader (or an interruption) never
+    sees a half-written file."""
     temporary = path.with_name(path.name + ".tmp")
     try:
         torch.save(obj, temporary)
@@ -233,7 +236,8 @@ def load_policy(path: str | os.PathLike) -> dict:
 
 
 def check_observation_config(trained: dict, env: dict, path: str | os.PathLike) -> None:
-    """Raise ``PolicyFileError`` unless the env's observation is shaped like the policy's training observation."""
+    """Raise ``PolicyFileError`` unless the env's observation is shaped like the policy's training
+    observation."""
     different = [key for key in sorted(set(trained) | set(env)) if not _same(trained.get(key), env.get(key))]
     if different:
         details = ", ".join(f"{key}: trained {trained.get(key)!r}, env {env.get(key)!r}" for key in different)
@@ -330,7 +334,8 @@ class PPOGailOnly(LearnedPolicy):
 
 
 def _plain(value):
-    """JSON-like plain values (what ``weights_only`` loading accepts): dicts, lists, str, int, float, bool, None."""
+    """JSON-like plain values (what ``weights_only`` loading accepts): dicts, lists, str, int, float, bool,
+    None."""
     if isinstance(value, dict):
         return {str(key): _plain(item) for key, item in value.items()}
     if isinstance(value, (list, tuple)):

@@ -1,47 +1,46 @@
 """Training the learned baselines: PPO + curiosity (ICM) + GAIL and its ablations, with rsl-rl.
 
-One policy, two behaviours. The seed trained a cleaning cell (reach every goal marker of a cell) and a tracking cell
-(the cell is clean, the bound to the next cell is open and a green exit landmark shows: drive to it, then clean the
-next cell). Here a single policy is trained on both layouts at once (``TrainConfig.layouts``: half the parallel envs
-run ``a320_cell``, half ``a320_tracking_cell``). The policy tells the two situations apart from what its lidar sees:
-while goal markers show it cleans, once an ``exit`` tag shows it tracks. Chained cell after cell, that is the seed's
-whole-cabin process (Fig. 4.15), which ``full_cabin`` evaluates zero-shot.
+One policy, two behaviours. The seed trained a cleaning cell (reach every goal marker of a cell) and a
+tracking cell (the cell is clean, the bound to the next cell is open and a green exit landmark shows: drive
+to it, then clean the next cell). Here a single policy is trained on both layouts at once
+(``TrainConfig.layouts``: half the parallel envs run ``a320_cell``, half ``a320_tracking_cell``). The policy
+tells the two situations apart from what its lidar sees: while goal markers show it cleans, once an
+``exit`` tag shows it tracks. Chained cell after cell, that is the seed's whole-cabin process (Fig. 4.15),
+which ``full_cabin`` evaluates zero-shot.
 
 Read top to bottom:
 
 1. ``TrainConfig``: every setting of a run, with its default and why.
-2. ``train(config, run_dir)``: records expert demonstrations with the boustrophedon planner (or reuses given ``.npz``
-   files), builds ``RslRlVecEnv(BatchedCoverageEnv(...))`` and rsl-rl's ``OnPolicyRunner`` with the
-   ``PPOCuriosityGail`` algorithm, then runs ``runner.learn(1)`` once per iteration under a tqdm bar; after each
-   iteration it appends a row to ``metrics.csv``, every ``save_interval`` iterations it writes a checkpoint
-   (atomically), and at the end it draws ``curves.png``.
-3. ``validate_checkpoints``: every checkpoint's policy plays ``validation_episodes`` episodes on each training
-   layout, with seeds the leaderboard does not use (``validation.csv``); then the last checkpoint (or, with
-   ``export="best"``, the best on validation) is exported as the small shipped policy ``policy.pt``.
-4. Interrupted runs (Ctrl-C, a crash) keep every finished checkpoint and validation row; ``train(..., resume=True)``
-   continues from the latest checkpoint: same weights, optimisers, normalisers, ICM and discriminator, and the
-   iteration count goes on. The environments restart their episodes (their physics state is not saved).
+2. ``train(config, run_dir)``: records expert demonstrations with the boustrophedon planner (or reuses
+   given ``.npz`` files), builds ``RslRlVecEnv(BatchedCoverageEnv(...))`` and rsl-rl's ``OnPolicyRunner``
+   with the ``PPOCuriosityGail`` algorithm, then runs ``runner.learn(1)`` once per iteration under a tqdm
+   bar; after each iteration it appends a row to ``metrics.csv``, every ``save_interval`` iterations it
+   writes a checkpoint (atomically), and at the end it draws ``curves.png``.
+3. ``validate_checkpoints``: every checkpoint's policy plays ``validation_episodes`` episodes on each
+   training layout, with seeds the leaderboard does not use (``validation.csv``); then the last checkpoint
+   (or, with ``export="best"``, the best on validation) is exported as the small shipped policy
+   ``policy.pt``.
+4. Interrupted runs (Ctrl-C, a crash) keep every finished checkpoint and validation row;
+   ``train(..., resume=True)`` continues from the latest checkpoint: same weights, optimisers, normalisers,
+   ICM and discriminator, and the iteration count goes on. The environments restart their episodes (their
+   physics state is not saved).
 
-The run directory holds ``config.json``, ``demos/<layout>.npz``, ``checkpoints/model_<iteration>.pt`` (full rsl-rl
-checkpoints: actor, critic, optimisers, ICM, discriminator), ``metrics.csv``, ``curves.png``,
-``validation/policy_<iteration>.pt`` (each checkpoint's actor), ``validation.csv`` (their validation episodes),
-``policy.pt`` (the exported actor, see ``baselines.ppo_gail.policy``) and ``rsl_rl.log`` (what rsl-rl prints while
-building the models).
+The run directory holds ``config.json``, ``demos/<layout>.npz``, ``checkpoints/model_<iteration>.pt`` (full
+rsl-rl checkpoints: actor, critic, optimisers, ICM, discriminator), ``metrics.csv``, ``curves.png``,
+``validation/policy_<iteration>.pt`` (each checkpoint's actor), ``validation.csv`` (their validation
+episodes), ``policy.pt`` (the exported actor, see ``baselines.ppo_gail.policy``) and ``rsl_rl.log`` (what
+rsl-rl prints while building the models).
 
-The runner is built with ``log_dir=None`` and its logger is replaced by ``TrainingLog``: rsl-rl's own logger would
-write TensorBoard files and a full checkpoint at the end of every ``learn`` call (non-atomically); ``TrainingLog``
-takes the same calls from the runner and turns them into one CSV row per iteration.
+The runner is built with ``log_dir=None`` and its logger is replaced by ``TrainingLog``: rsl-rl's own logger
+would write TensorBoard files and a full checkpoint at the end of every ``learn`` call (non-atomically);
+``TrainingLog`` takes the same calls from the runner and turns them into one CSV row per iteration.
 
-The shipped policies (``baselines/ppo_gail/checkpoints``) come from ``python -m cabinbench.train --baseline NAME
---ship`` with the defaults below: 800 iterations x 64 envs x 64 steps = 3.3 M steps, seed 0. On the 2-core
-development machine, each with another training run beside it, ppo_gail trained in 27 minutes, ppo_icm in 22-23,
-ppo_gail_only in 17-19 and ppo in 12-14 (seeds 0-2); validating their checkpoints took 2-4 minutes more per run.
-``--ship`` also keeps each run's ``config.json``, ``metrics.csv`` and ``validation.csv`` in ``results/training/``,
-from which the leaderboard draws the training curves. Training is
-deterministic on a CPU (seeded, one torch thread, envs seeded per index): ``results/train_policies.sh`` retrains all
-twelve policies of the results (four ablations, seeds 0-2). Run on this machine with the previous defaults, it
-reproduced the four shipped policies' weights and training records exactly (all but the timings), and the first 50
-iterations of the eight others.
+The shipped policies (``baselines/ppo_gail/checkpoints``) come from ``python -m cabinbench.train --baseline
+NAME --ship`` with the defaults below: 3.3 M steps, seed 0, 12-27 minutes a run on a 2-core CPU. ``--ship``
+also keeps the run's ``config.json``, ``metrics.csv`` and ``validation.csv`` in ``results/training/``, from
+which the leaderboard draws the training curves. Training is deterministic on a CPU (seeded, one torch
+thread, envs seeded per index): ``results/train_policies.sh`` retrains all twelve policies of the results
+(four ablations, seeds 0-2). Training times and the trials behind every default: ``docs/experiments.md``.
 """
 
 from __future__ import annotations
@@ -60,7 +59,7 @@ os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl's logger imports 
 import numpy as np
 import torch
 
-from cabinbench.baselines.ppo_gail.algorithm import ABLATIONS, make_train_cfg
+from cabinbench.baselines.ppo_gail.algorithm import ABLATIONS, REWARD_SIGNALS, make_train_cfg
 from cabinbench.baselines.ppo_gail.policy import atomic_torch_save
 from cabinbench.training_records import best_checkpoint, plot_curves, read_metrics
 
@@ -73,108 +72,62 @@ from cabinbench.training_records import best_checkpoint, plot_curves, read_metri
 class TrainConfig:
     """Every setting of a training run. Saved as ``config.json`` in the run directory.
 
-    The defaults are the shipped policies' configuration: sized to train in about 20 minutes on a 2-core CPU (the
-    seed trained for 6 M + 2 M steps on a GPU in Unity; ``iterations * num_envs * num_steps_per_env`` is the number of
-    environment steps here). The ablations use the same configuration and so the same budget. How the defaults
-    score over three seeds per ablation: ``results/ablation.md``.
+    The defaults are the shipped policies' configuration, sized to train in about 20 minutes on a 2-core CPU
+    (the seed trained for 6 M + 2 M steps on a GPU in Unity). The ablations share it, and so the budget. How
+    the defaults score over three seeds per ablation: ``results/ablation.md``; the trials behind them:
+    ``docs/experiments.md``.
     """
 
     ablation: str = "ppo_gail"
     """One of ``ABLATIONS``: "ppo_gail", "ppo", "ppo_icm", "ppo_gail_only"."""
     layouts: list[str] = field(default_factory=lambda: ["a320_cell", "a320_tracking_cell"])
-    """Training layouts, shared round-robin by the parallel envs: the seed's cleaning cell and tracking cell."""
+    """Training layouts, shared round-robin by the parallel envs: the seed's cleaning and tracking cells."""
     num_envs: int = 64
+    """Parallel envs."""
     num_steps_per_env: int = 64
     """Rollout length per env and iteration; an iteration collects ``num_envs * num_steps_per_env`` steps."""
     iterations: int = 800
+    """Training iterations: 3.3 M steps with the defaults."""
     seed: int = 0
+    """Seed of torch, numpy, the envs and the demonstrations."""
     reward: str = "coverage"
-    """Reward preset of the env. "coverage" (dense: pays for newly covered area) rather than the seed's "paper" (Tables
-    4.4/4.5, which pays only for the four goal markers): the paper reward ends the episode, and so the coverage, as soon
-    as the last marker is reached, and in short trial runs its policies covered less and cleared the cell less often;
-    coverage is what the benchmark scores. The policies leave more of the floor uncovered the nearer it lies to a wall
-    (``results/uncovered.md``), where the preset's collision penalty (-0.1) makes driving costly. A penalty of -0.02 was
-    tried and not adopted (seed 0; validation coverage / success on ``a320_cell`` at the last checkpoint, against 0.797
-    / 1.0 for ppo and 0.706 / 0.90 for ppo_gail with -0.1): ppo reached 0.842 / 1.0, but learnt to push along walls (18
-    collisions per ``a320_cell`` episode, 5 before) and cleared 2 ``full_cabin`` cells (4 episodes, 1380 collisions
-    each); ppo_gail fell to 0.633 / 0.30 (with -0.05: 0.592 / 0.70). A step penalty of -0.001 (preset -0.005) was not
-    adopted either: driving at full speed (5 cm a step) along a strip of uncleaned floor narrower than 6.4 cm earns less
-    than the step costs on ``a320_cell``, but with the lower penalty the agents lost their hurry to finish: ppo 0.795 /
-    1.0, with its ``a320_tracking_cell`` success down from 1.0 to 0 (it kept cleaning the second cell without clearing
-    it), and ppo_gail 0.663 / 0.25."""
+    """Reward preset of the envs: the dense "coverage" (what the benchmark scores) rather than the seed's
+    "paper", whose episode ends at the last goal marker. Its penalties were tried: docs/experiments.md."""
     terminate_on_bound: bool = False
-    """Do not end the episode on a bound contact (the seed's tracking training did, Table 4.5). With the GAIL logit
-    reward, which is negative wherever the agent does not look like the expert, a bound that ends the episode is an
-    exit from that penalty: in trial runs the agent learnt to drive into the bound of the tracking cell within ~100
-    steps. The contact still costs the preset's bound penalty."""
+    """Keep the episode going on a bound contact: ending it would be an exit from the mostly negative GAIL
+    reward (docs/experiments.md). The contact still costs the preset's bound penalty."""
     random_start: bool = True
-    """Start each training episode at a random pose of the start cell (``CoverageEnv``'s ``random_start``) rather
-    than at the layout's start, so that the policy learns to clean a cell from wherever it stands, as it must when it
-    enters each new cell of ``full_cabin``. The demonstrations keep the layout's start, where the planner's plan
-    begins. Measured with ``coverage_patch=16`` (20 ``a320_cell`` / 6 ``full_cabin`` episodes), plain ppo seeds 0-3
-    covered 0.76, 0.67, 0.74 and 0.83 of ``a320_cell`` (success 1.0, 1.0, 1.0, 0.85) and cleared 10, 2.7, 2.2 and 0.8
-    ``full_cabin`` cells."""
+    """Start each training episode at a random pose of the start cell, as the policy enters each new cell of
+    ``full_cabin`` (docs/experiments.md). The demonstrations keep the layout's start, where the plan
+    begins."""
     coverage_patch: int = 32
+    """Cells across the observation's coverage patch of the floor still to clean (0: none, the study's
+    lidar-only observation, with which no policy tells a cleaned aisle from a dirty one; docs/experiments.md).
+    The ICM and the discriminator do not see it (``shaping_columns``)."""
     coverage_patch_cell: float = 0.125
-    """The observation's coverage patch (``CoverageEnv``): 32 x 32 cells of 0.125 m, a 4 m window of the floor still
-    to clean around the robot (0: none, the study's lidar-only observation). Without it a memoryless policy cannot
-    tell a cleaned aisle from a dirty one: every lidar-only policy covered 0.40-0.64 of ``a320_cell``, and the
-    lidar-only ppo_gail left its rear clearance, which has no goal marker, uncleaned. The GAIL discriminator and the
-    ICM do not see the patch (``shaping_columns``): the expert's patches show its own sweep, which would let the
-    discriminator tell it apart by the patch alone.
-    The previous default, 16 x 16 cells of 0.25 m (the same window), barely shows the strips of floor the policies
-    left along walls (``results/uncovered.md``): with it the three ppo_gail seeds covered 0.697 of ``a320_cell`` on
-    average (0.632-0.741, success 0.78) and cleared 9.27 ``full_cabin`` cells. With the finer patch (and GAIL strength
-    0.02, see ``algorithm``), ppo_gail seeds 0 and 1 covered 0.778 and 0.779 (20 ``a320_cell`` episodes, seeds 0-19;
-    success 0.6 and 1.0) and cleared all 10 ``full_cabin`` cells in every episode (4 episodes, coverage 0.92). Under
-    the leaderboard's protocol (``results/ablation.md``) the three ppo_gail seeds cover 0.801 of ``a320_cell``
-    (0.779-0.819, success 0.90) and clear 8.17 ``full_cabin`` cells (5.05-10); every ablation covers more of
-    ``a320_cell`` than with the coarse patch, but without demonstrations the policies no longer transfer: ppo and
-    ppo_icm clear at most 3.75 ``full_cabin`` cells (1.05 and 1.65 on average; 5.95 and 4.47 before). Alone (GAIL
-    strength 0.05, seed 0), the finer patch brought ppo to 0.846 / 1.0 validation coverage / success on
-    ``a320_cell`` (0.797 / 1.0 with the coarse patch) but ppo_gail, at 0.798, to a success of 0.05: it kept cleaning
-    until the step limit. The finer patch costs training time: ppo_gail's seeds 0 and 1 trained in 27-28 minutes side
-    by side (21 with the coarse patch)."""
+    """Size of a patch cell in metres: 32 x 0.125 m is a 4 m window, fine enough to show the strips of floor
+    left along walls (docs/experiments.md)."""
     max_steps: int | None = None
-    """Episode step limit; None keeps each layout's own (1500 for both training cells, the seed's cells used 3000)."""
+    """Episode step limit; None keeps each layout's own (1500 for both training cells)."""
     hidden_dims: list[int] = field(default_factory=lambda: [64, 64])
     """Actor and critic MLPs. Small: on a CPU the update dominates the iteration time."""
     activation: str = "elu"
+    """Activation of the actor and critic MLPs (rsl-rl's name)."""
     init_noise_std: float = 1.0
+    """Initial std of the Gaussian policy."""
     min_action_std: float = 0.25
-    """Lower clamp of the Gaussian policy's std (rsl-rl's ``std_range``; 0 leaves it free). Keeps the policy
-    exploring: the GAIL discriminator tells noisy actions from the expert's, which pushes the std down. Without GAIL
-    the std rises instead, to about 2.1 at the end of ppo and ppo_icm training (the env clips actions to [-1, 1], so a
-    wide Gaussian costs the policy little). Capping it at 0.5 was tried on ppo (seed 0) and not adopted: validation
-    coverage 0.774 / success 1.0 against 0.797 / 1.0, fewer collisions, but no ``full_cabin`` cell cleared."""
+    """Lower clamp of the policy's std (rsl-rl's ``std_range``; 0 leaves it free): keeps the policy exploring
+    while the discriminator pushes the std down (docs/experiments.md)."""
     algorithm: dict = field(default_factory=lambda: {"entropy_coef": 0.03, "gail_strength": 0.02})
-    """Further ``PPOCuriosityGail`` keyword arguments; anything not set here keeps the study's Table 5.2/5.3 value
-    (curiosity 0.02, gamma 0.99, lambda 0.95, lr 3e-4, 3 epochs). The entropy bonus is raised from the study's 0.01
-    to 0.03: with 0.01 the policy's std collapsed to ~0.04 within 400 iterations in trial runs and the policy settled
-    on circling in place (coverage 0.27, no cell cleared). The GAIL strength is lowered from the study's 0.3 to 0.02:
-    the discriminator's logit is of order 1 at every step, while the ``coverage`` reward pays 0.02-0.03 per step of
-    driving over uncleaned floor, so at 0.3 the policy imitated the expert's lidar view and ignored the patch.
-    Measured with the coarse patch (16 x 0.25 m) and random starts (seed 0; 20 ``a320_cell`` / 6 ``full_cabin``
-    episodes): strength 0.3 covered 0.53 of ``a320_cell`` and cleared no ``full_cabin`` cell; 0.1 covered 0.65 and
-    cleared 2.3 cells; 0.05 covered 0.69 (success 0.9) and cleared all 10 cells in every episode (coverage 0.91).
-    Strength 0.02 with the coarse patch, on seeds 0-2 (20 ``a320_cell`` episodes with seeds 0-19, 4 ``full_cabin``
-    with seeds 0-3, per policy): ``a320_cell`` coverage 0.751, 0.702, 0.769 (mean 0.741; success 1.0, 0.75, 1.0) and
-    6.75, 10, 9 ``full_cabin`` cells, against 0.697 (success 0.78) and 9.27 cells for 0.05. With the fine patch
-    (``coverage_patch``), 0.05 let ppo_gail clean on until the step limit (success 0.05); with 0.02 its seeds 0 and 1
-    cleared the cell in 60% and 100% of the episodes. Also tried on ppo_gail (seed 0, coarse patch, strength 0.05)
-    and not adopted, by validation coverage / success on ``a320_cell`` at the last checkpoint (0.706 / 0.90 without
-    them): the study's entropy 0.01 with the std kept in [0.25, 0.5], 0.667 / 0.05; rsl-rl's "adaptive"
-    learning-rate schedule, 0.673 / 0.60."""
+    """Further ``PPOCuriosityGail`` keyword arguments; the others keep the study's Table 5.2/5.3 values. The
+    entropy bonus is raised from 0.01 (the std collapsed) and the GAIL strength lowered from 0.3 (the policy
+    imitated and ignored the patch): docs/experiments.md."""
     demo_episodes: int = 4
-    """Expert (boustrophedon) episodes recorded per training layout for GAIL. The planner and the env are
+    """Expert (boustrophedon) episodes recorded per training layout for GAIL; planner and env are
     deterministic, so without ``demo_action_noise`` these are one trajectory repeated."""
     demo_action_noise: float = 0.0
-    """Std of the Gaussian noise the demonstration episodes add to the planner's executed actions, while the planner's
-    own actions are recorded (``record_demonstrations``): demonstrations that also show how the expert gets back to
-    its path. Not adopted: with the earlier lidar-only defaults (GAIL strength 0.3, fixed starts), noise 0.3 and 8
-    episodes per layout (seed 0), ppo_gail covered 0.61 of ``a320_cell`` but never cleared it (0.95 without), and
-    cleared 3.7 ``full_cabin`` cells (5.5); ppo_gail_only 0.62 / 0.05 and 1.0 cell (0.52 / 0.50 and 9.6). With noise
-    the expert brushes the last marker early, so its noisy episodes end at about 0.70 coverage."""
+    """Std of the Gaussian noise added to the planner's executed actions while its own are recorded; 0:
+    noisy demonstrations made the policies worse (docs/experiments.md)."""
     demo_max_steps: int | None = None
     """Step limit of the demonstration episodes (None: the training ``max_steps``)."""
     demonstrations: list[str] = field(default_factory=list)
@@ -182,34 +135,14 @@ class TrainConfig:
     save_interval: int = 50
     """Write a checkpoint every this many iterations (and after the last one)."""
     validation_episodes: int = 20
-    """Episodes per training layout on which every checkpoint's policy is played at the end of training, as the
-    leaderboard plays them but with seeds from ``VALIDATION_SEED``: ``validation.csv`` and panel (g) of
-    ``curves.png`` (0: no validation). They show how much a policy's score swings between checkpoints 50 iterations
-    apart: on ``a320_cell``, from iteration 300 on, ppo_gail seed 0 of the previous defaults (coarse patch) covered
-    0.71-0.83 (success 0.05-0.95), and seed 0 of these defaults 0.77-0.84 (success 0.5-1.0)."""
+    """Episodes per training layout on which every checkpoint plays at the end of training, with seeds from
+    ``VALIDATION_SEED`` (``validation.csv``, panel (g) of ``curves.png``; 0: none)."""
     export: str = "last"
-    """Which checkpoint ``policy.pt`` holds: "last", or "best" on the validation episodes (``validation_score``).
-    The results keep "last", the protocol they were made with; "best" would change the ablation's ranking. Measured
-    on the twelve runs of the previous defaults (coarse patch, GAIL strength 0.05) by ``python
-    results/compare_checkpoints.py`` (each run's best and last checkpoint on the same episodes: 20 ``a320_cell`` with
-    seeds 0-19, 4 ``full_cabin`` with seeds 0-3; the mean over seeds 0-2):
-
-    ============= ======================= ======================= ========================
-    ablation      ``a320_cell`` coverage  ``a320_cell`` success   ``full_cabin`` cells
-                  best / last             best / last             best / last
-    ============= ======================= ======================= ========================
-    ppo           0.769 / 0.722           0.967 / 1               9.75 / 4.75
-    ppo_gail      0.725 / 0.692           0.717 / 0.783           7.17 / 9.58
-    ppo_gail_only 0.766 / 0.686           0.6 / 0.7               8.08 / 5.67
-    ppo_icm       0.754 / 0.755           1 / 1                   6.67 / 4.42
-    all runs      0.754 / 0.714           0.821 / 0.871           7.92 / 6.1
-    ============= ======================= ======================= ========================
-
-    So on average the best checkpoint covers more and transfers better, but not for ppo_gail, whose seed 0 (the
-    shipped policy) clears 5.75 cells at its best checkpoint (iteration 350) and all 10 at its last."""
+    """Which checkpoint ``policy.pt`` holds: "last", or "best" on validation (``validation_score``). The
+    results keep "last"; "best" would reorder the ablations (docs/experiments.md)."""
     threads: int = 1
-    """torch threads. 1: on a 2-core machine shared with other work, 2 threads fell from 0.8 s to 20 s per iteration
-    as soon as another process took a core (the threads spin waiting for each other); 1 thread ran at ~1 s."""
+    """torch threads. 1: on a shared 2-core machine 2 threads spin waiting for each other
+    (docs/experiments.md)."""
 
     def __post_init__(self) -> None:
         if self.ablation not in ABLATIONS:
@@ -247,15 +180,15 @@ class TrainConfig:
         }
 
     def to_dict(self) -> dict:
-        """Every field, and the reward signals of the ablation (``use_curiosity``, ``use_gail``): the leaderboard
-        reads those from ``config.json`` (``cabinbench.training_records``) without importing this baseline."""
+        """Every field, and the ablation's ``REWARD_SIGNALS`` (``use_curiosity``, ``use_gail``): the
+        leaderboard reads those from ``config.json`` without importing this baseline
+        (``cabinbench.training_records``)."""
         return {**dataclasses.asdict(self), **ABLATIONS[self.ablation]}
 
     @classmethod
     def from_dict(cls, values: dict) -> TrainConfig:
-        values = {
-            key: value for key, value in values.items() if key not in ABLATIONS[values.get("ablation", "ppo")]
-        }
+        """The config of a ``config.json`` (the inverse of ``to_dict``); unknown fields are an error."""
+        values = {key: value for key, value in values.items() if key not in REWARD_SIGNALS}
         known = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(values) - known)
         if unknown:
@@ -264,8 +197,8 @@ class TrainConfig:
 
 
 RESUMABLE_CHANGES = ("iterations", "threads", "save_interval", "export")
-"""Fields a resumed run may change (e.g. train further, or export another checkpoint); any other difference to the
-saved config is an error."""
+"""Fields a resumed run may change (e.g. train further, or export another checkpoint); any other difference to
+the saved config is an error."""
 
 CONFIG_FILE, METRICS_FILE, CURVES_FILE, POLICY_FILE = "config.json", "metrics.csv", "curves.png", "policy.pt"
 VALIDATION_FILE = "validation.csv"
@@ -307,17 +240,18 @@ METRIC_COLUMNS = (
     "action_std",
     "learning_rate",
 )
-"""``metrics.csv`` columns. Episode columns average the episodes that ended during the iteration (empty when none
-did); ``episode_reward`` is the environment reward (without the curiosity and GAIL bonuses, so ablations compare);
-``policy_loss`` is PPO's clipped surrogate loss; losses of modules an ablation does not use are empty."""
+"""``metrics.csv`` columns. Episode columns average the episodes that ended during the iteration (empty when
+none did); ``episode_reward`` is the environment reward (without the curiosity and GAIL bonuses, so ablations
+compare); ``policy_loss`` is PPO's clipped surrogate loss; losses of modules an ablation does not use are
+empty."""
 
 
 class TrainingLog:
     """Takes the calls ``OnPolicyRunner`` makes on its logger and keeps one row of metrics per iteration.
 
-    ``process_env_step`` sees every step's environment reward, dones and ``extras["log"]`` (the means of the episode
-    records that ended on that step, from ``RslRlVecEnv``); ``log`` receives the losses after the update.
-    ``writer`` is None, so the runner saves no checkpoints of its own.
+    ``process_env_step`` sees every step's environment reward, dones and ``extras["log"]`` (the means of the
+    episode records that ended on that step, from ``RslRlVecEnv``); ``log`` receives the losses after the
+    update. ``writer`` is None, so the runner saves no checkpoints of its own.
     """
 
     writer = None
@@ -335,7 +269,7 @@ class TrainingLog:
         self.finished_lengths: list[float] = []
         self.metric_sums = dict.fromkeys(EPISODE_METRICS, 0.0)
 
-    # The runner's logger interface -----------------------------------------------------------------------------------
+    # The runner's logger interface --------------------------------------------------------------------------
 
     def init_logging_writer(self) -> None:
         pass
@@ -381,8 +315,8 @@ class MetricsFile:
     """``metrics.csv``: one row per iteration, appended and flushed as soon as the iteration is done."""
 
     def __init__(self, path: Path, keep_until: int) -> None:
-        """Open ``path``, keeping only rows of iterations ``<= keep_until`` (the checkpoint a run resumes from:
-        later rows belong to iterations that are trained again)."""
+        """Open ``path``, keeping only rows of iterations ``<= keep_until`` (the checkpoint a run resumes
+        from: later rows belong to iterations that are trained again)."""
         self.path = path
         rows = (
             [row for row in read_metrics(path) if int(row["iteration"]) <= keep_until]
@@ -423,8 +357,8 @@ def latest_checkpoint(run_dir: str | os.PathLike) -> Path | None:
 
 
 def save_checkpoint(runner, run_dir: Path, iteration: int, config: TrainConfig, train_time: float) -> Path:
-    """The algorithm's full state (rsl-rl's checkpoint dict plus the ICM and discriminator) after ``iteration``
-    completed iterations."""
+    """The algorithm's full state (rsl-rl's checkpoint dict plus the ICM and discriminator) after
+    ``iteration`` completed iterations."""
     saved = runner.alg.save()
     saved["iter"] = iteration
     saved["infos"] = {"config": config.to_dict(), "train_time": train_time}
@@ -460,9 +394,10 @@ def train(
 ) -> TrainResult:
     """Train (or, with ``resume``, continue training) the policy of ``config`` in ``run_dir``.
 
-    Without ``resume`` the run directory must not hold checkpoints yet. With ``resume`` the saved ``config.json``
-    must agree with ``config`` except in ``RESUMABLE_CHANGES``; training continues from the latest checkpoint (or
-    starts, if there is none). Ctrl-C stops after the finished checkpoints and returns with ``interrupted=True``.
+    Without ``resume`` the run directory must not hold checkpoints yet. With ``resume`` the saved
+    ``config.json`` must agree with ``config`` except in ``RESUMABLE_CHANGES``; training continues from the
+    latest checkpoint (or starts, if there is none). Ctrl-C stops after the finished checkpoints and returns
+    with ``interrupted=True``.
     """
     from rsl_rl.runners import OnPolicyRunner
 
@@ -480,17 +415,11 @@ def train(
     batched = BatchedCoverageEnv(config.layouts, config.num_envs, seed=config.seed, **config.env_kwargs)
     env = RslRlVecEnv(batched)
     obs_config = batched.example_env.observation_config
-    world = batched.example_env.world
     train_cfg = make_train_cfg(
         config.ablation,
         expert_demonstrations=demonstrations,
         expected_observation_config=obs_config,
-        # the ICM and the discriminator see lidar and velocity, never the coverage patch (see PPOCuriosityGail)
-        shaping_columns=np.delete(
-            np.arange(world.observation_size), world.observation_layout["coverage_patch"]
-        ).tolist()
-        if config.coverage_patch
-        else None,
+        shaping_columns=shaping_columns(batched.example_env.observation_layout),
         num_steps_per_env=config.num_steps_per_env,
         hidden_dims=config.hidden_dims,
         activation=config.activation,
@@ -574,6 +503,16 @@ def train(
     return TrainResult(run_dir, policy_path, iteration, train_time, summary)
 
 
+def shaping_columns(layout: dict[str, slice]) -> list[int] | None:
+    """The observation columns the ICM and the discriminator see: every part of the observation's ``layout``
+    but the coverage patch, whose expert sweep would give the expert away (``PPOCuriosityGail``); None (all
+    columns) when there is no patch."""
+    if "coverage_patch" not in layout:
+        return None
+    kept = [span for part, span in layout.items() if part != "coverage_patch"]
+    return [column for span in kept for column in range(span.start, span.stop)]
+
+
 def prepare_run_dir(config: TrainConfig, run_dir: Path, resume: bool) -> Path | None:
     """Create the run directory and its ``config.json``; return the checkpoint to resume from (or None)."""
     saved_config_path = run_dir / CONFIG_FILE
@@ -639,8 +578,8 @@ def expert_demonstrations(config: TrainConfig, run_dir: Path) -> list[str]:
 
 
 def training_summary(rows: list[dict], config: TrainConfig, train_time: float, window: int = 20) -> dict:
-    """Iterations, steps and time, and the episode metrics averaged over the last ``window`` iterations (weighted by
-    their episodes): what the shipped policy's file records about its training."""
+    """Iterations, steps and time, and the episode metrics averaged over the last ``window`` iterations
+    (weighted by their episodes): what the shipped policy's file records about its training."""
     last = rows[-window:]
     summary: dict = {
         "ablation": config.ablation,
@@ -687,8 +626,8 @@ def _postfix(row: dict) -> dict:
 
 VALIDATION_SEED = 1_000_000
 """Validation episode ``i`` uses seed ``VALIDATION_SEED + i``: not a seed the leaderboard plays (0-403,
-``results/make_results.sh``), so a policy is never judged (or, with ``export="best"``, chosen) on the episodes it is
-scored on."""
+``results/make_results.sh``), so a policy is never judged (or, with ``export="best"``, chosen) on the episodes
+it is scored on."""
 VALIDATION_COLUMNS = ("iteration", "layout", "episodes", "coverage", "success", "cells_cleared", "time")
 """``validation.csv``: one row per checkpoint and training layout, the means over its validation episodes."""
 
@@ -701,11 +640,11 @@ def read_validation(run_dir: Path, config: TrainConfig) -> list[dict]:
 
 
 def validate_checkpoints(runner, config: TrainConfig, run_dir: Path, export) -> None:
-    """Play ``config.validation_episodes`` episodes on each training layout (sequential protocol, the layout's own
-    start, sampled actions: as the leaderboard plays them) with the policy of every checkpoint up to
+    """Play ``config.validation_episodes`` episodes on each training layout (sequential protocol, the layout's
+    own start, sampled actions: as the leaderboard plays them) with the policy of every checkpoint up to
     ``config.iterations``. Each checkpoint's policy file is exported (by ``export(path)``) to
-    ``validation/policy_<iteration>.pt``, and its rows are appended to ``validation.csv`` as soon as they are measured:
-    a resumed run validates only the checkpoints not done yet."""
+    ``validation/policy_<iteration>.pt``, and its rows are appended to ``validation.csv`` as soon as they are
+    measured: a resumed run validates only the checkpoints not done yet."""
     from cabinbench.episodes import run_episode
     from cabinbench.layout import load_layout
 
