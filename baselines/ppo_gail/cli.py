@@ -3,25 +3,26 @@
     python -m cabinbench.train --baseline ppo_gail|ppo|ppo_icm|ppo_gail_only
         [--layout NAME ...] [--iterations N] [--num-envs N] [--steps-per-env N] [--seed S]
         [--reward paper|coverage] [--[no-]terminate-on-bound] [--max-steps N] [--algorithm JSON]
-        [--min-action-std X] [--coverage-patch N] [--[no-]random-start]
+        [--min-action-std X] [--coverage-patch N] [--coverage-patch-cell M] [--[no-]random-start]
         [--threads N] [--save-interval N] [--validation-episodes N] [--export last|best]
-        [--demonstrations FILE.npz ...] [--run-dir DIR] [--resume] [--ship] [--keep] [--no-progress]
+        [--demonstrations FILE.npz ...] [--demo-episodes N] [--demo-action-noise STD]
+        [--run-dir DIR] [--resume] [--ship [--ship-dir DIR]] [--keep] [--no-progress]
 
-Options not given take the defaults of ``cabinbench.baselines.ppo_gail.training.TrainConfig`` (the shipped policies'
-configuration; with ``--layout`` repeated, one policy trains on all of them, by default ``a320_cell`` and
-``a320_tracking_cell``). The run lives in ``--run-dir`` (default ``runs/train/<baseline>__seed<S>``): config,
-demonstrations, checkpoints, ``metrics.csv``, ``curves.png`` and the exported ``policy.pt``. ``--resume`` continues
-an interrupted run from its latest checkpoint, with the saved config (``--iterations`` may raise the total).
-At the end every checkpoint's policy plays ``--validation-episodes`` episodes (default 20) on each training layout
-(``validation.csv`` in the run directory); ``--export best`` exports the checkpoint that did best there instead of
-the last (see ``TrainConfig.export`` for why the last is the default).
-``--ship`` copies the exported policy to ``--ship-dir`` (default the repository's ``baselines/ppo_gail/checkpoints/``,
-so run it from the repository root)``/<baseline>.pt``, where
-``python -m cabinbench.run --baseline <baseline>`` finds it, and the run's ``config.json``, ``metrics.csv`` and
-``validation.csv`` to ``results/training/<baseline>/``, from which ``python -m cabinbench.leaderboard`` draws the
-committed training curves. ``--keep`` copies the policy, ``config.json``, ``metrics.csv`` and ``validation.csv`` to
-``results/training/<baseline>/seed<S>/``: a further training run of the same command, which
-``results/make_results.sh`` scores into ``results/ablation.md``.
+Options not given take the defaults of ``cabinbench.baselines.ppo_gail.training.TrainConfig`` (the shipped
+policies' configuration; with ``--layout`` repeated, one policy trains on all of them, by default
+``a320_cell`` and ``a320_tracking_cell``). The run lives in ``--run-dir`` (default
+``runs/train/<baseline>__seed<S>``): config, demonstrations, checkpoints, ``metrics.csv``, ``curves.png`` and
+the exported ``policy.pt``. ``--resume`` continues an interrupted run from its latest checkpoint, with the
+saved config (``--iterations`` may raise the total). At the end every checkpoint's policy plays
+``--validation-episodes`` episodes (default 20) on each training layout (``validation.csv`` in the run
+directory); ``--export best`` exports the checkpoint that did best there instead of the last (see
+``TrainConfig.export`` for why the last is the default). ``--ship`` copies the exported policy to
+``<ship-dir>/<baseline>.pt`` (``--ship-dir``, default the repository's ``baselines/ppo_gail/checkpoints``: run
+it from the repository root), where ``python -m cabinbench.run --baseline <baseline>`` finds it, and the run's
+``config.json``, ``metrics.csv`` and ``validation.csv`` to ``results/training/<baseline>/``, from which
+``python -m cabinbench.leaderboard`` draws the committed training curves. ``--keep`` copies the policy,
+``config.json``, ``metrics.csv`` and ``validation.csv`` to ``results/training/<baseline>/seed<S>/``: a further
+training run of the same command, which ``results/make_results.sh`` scores into ``results/ablation.md``.
 
 Exit status: 0 done; 2 bad arguments (an unknown baseline: the valid ones are printed) or a run directory that
 cannot be used as asked; 130 interrupted by Ctrl-C (finished checkpoints are kept; resume with ``--resume``).
@@ -35,6 +36,8 @@ import os
 import shutil
 import sys
 from pathlib import Path
+
+from cabinbench.rewards import REWARD_PRESETS
 
 EXIT_USAGE, EXIT_INTERRUPTED = 2, 130
 TRAINABLE = (
@@ -66,7 +69,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         "--steps-per-env", type=int, dest="num_steps_per_env", help="rollout steps per env and iteration"
     )
     parser.add_argument("--seed", type=int, help="seed (default 0)")
-    parser.add_argument("--reward", choices=("paper", "coverage"), help="reward preset of the training envs")
+    parser.add_argument("--reward", choices=REWARD_PRESETS, help="reward preset of the training envs")
     parser.add_argument("--max-steps", type=int, help="episode step limit (default: each layout's)")
     parser.add_argument("--threads", type=int, help="torch threads")
     parser.add_argument("--save-interval", type=int, help="checkpoint every N iterations")
@@ -93,6 +96,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         help="observe an N x N coverage patch (0: lidar and velocity only)",
     )
     parser.add_argument(
+        "--coverage-patch-cell", type=float, metavar="M", help="size of a coverage patch cell in metres"
+    )
+    parser.add_argument(
         "--random-start",
         action=argparse.BooleanOptionalAction,
         default=None,
@@ -106,6 +112,13 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     )
     parser.add_argument(
         "--demonstrations", nargs="+", metavar="FILE", help="expert .npz files instead of recording"
+    )
+    parser.add_argument("--demo-episodes", type=int, metavar="N", help="expert episodes per training layout")
+    parser.add_argument(
+        "--demo-action-noise",
+        type=float,
+        metavar="STD",
+        help="Gaussian noise on the expert's executed actions while recording (0: none)",
     )
     parser.add_argument("--run-dir", help="run directory (default runs/train/<baseline>__seed<S>)")
     parser.add_argument(
@@ -121,7 +134,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument(
         "--keep",
         action="store_true",
-        help="copy the policy and training records to results/training/<baseline>/seed<S>/ (results/ablation.md)",
+        help="copy the policy and training records to results/training/<baseline>/seed<S>/ "
+        "(results/ablation.md)",
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
@@ -131,7 +145,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 
 def build_config(args: argparse.Namespace):
-    """The ``TrainConfig``: the saved one when resuming (else the defaults), overridden by the options given."""
+    """The ``TrainConfig``: the saved one when resuming (else the defaults), overridden by the options
+    given."""
     from cabinbench.baselines.ppo_gail.training import CONFIG_FILE, TrainConfig, default_run_dir
 
     given = {
@@ -148,12 +163,15 @@ def build_config(args: argparse.Namespace):
             "algorithm",
             "min_action_std",
             "coverage_patch",
+            "coverage_patch_cell",
             "random_start",
             "threads",
             "save_interval",
             "validation_episodes",
             "export",
             "demonstrations",
+            "demo_episodes",
+            "demo_action_noise",
         )
         if getattr(args, name) is not None
     }
@@ -177,7 +195,8 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_USAGE
     if args.ship and not args.ship_dir.is_dir():
         print(
-            f"error: --ship-dir {args.ship_dir} is not a folder; run from the repository root or give --ship-dir DIR",
+            f"error: --ship-dir {args.ship_dir} is not a folder; "
+            "run from the repository root or give --ship-dir DIR",
             file=sys.stderr,
         )
         return EXIT_USAGE
@@ -214,12 +233,14 @@ def main(argv: list[str] | None = None) -> int:
 
     summary = result.summary
     print(
-        f"done: {result.iterations} iterations, {summary['timesteps']} steps, {result.train_time / 60:.1f} min of "
-        f"training; last iterations: coverage {summary['final_coverage']}, success {summary['final_success']}"
+        f"done: {result.iterations} iterations, {summary['timesteps']} steps, "
+        f"{result.train_time / 60:.1f} min of training; last iterations: "
+        f"coverage {summary['final_coverage']}, success {summary['final_success']}"
     )
     print(
         f"policy: {result.policy_path} (the checkpoint of iteration {summary['exported_iteration']}, "
-        f"--export {config.export})\ncurves: {result.run_dir / 'curves.png'}\nmetrics: {result.run_dir / 'metrics.csv'}"
+        f"--export {config.export})\ncurves: {result.run_dir / 'curves.png'}\n"
+        f"metrics: {result.run_dir / 'metrics.csv'}"
     )
     if config.validation_episodes:
         print(f"validation of every checkpoint: {result.run_dir / 'validation.csv'}")
