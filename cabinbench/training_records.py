@@ -23,15 +23,15 @@ def read_metrics(path: str | os.PathLike) -> list[dict]:
 
 
 def validation_score(rows: list[dict]) -> float:
-    """A checkpoint's validation score: success rate + coverage, averaged over the training layouts. Both, because an
-    episode ends at success: a policy that never finishes may cover more by wandering until the step limit, and one
-    that finishes early may leave floor uncleaned."""
+    """A checkpoint's validation score: success rate + coverage, averaged over the training layouts. Both,
+    because an episode ends at success: a policy that never finishes may cover more by wandering until the
+    step limit, and one that finishes early may leave floor uncleaned."""
     return float(np.mean([float(row["success"]) + float(row["coverage"]) for row in rows]))
 
 
 def best_checkpoint(validation: list[dict]) -> tuple[int, float]:
-    """(iteration, score) of the checkpoint with the best ``validation_score`` in ``validation.csv``'s rows (the later
-    one on a tie)."""
+    """(iteration, score) of the checkpoint with the best ``validation_score`` in ``validation.csv``'s rows
+    (the later one on a tie)."""
     scores = {
         iteration: validation_score([row for row in validation if int(row["iteration"]) == iteration])
         for iteration in {int(row["iteration"]) for row in validation}
@@ -58,9 +58,9 @@ def plot_curves(
     validation: list[dict] | None = None,
 ) -> None:
     """2 x 3 panels like the seed's Fig. 5.8: the raw value per iteration (light) and a running mean (dark).
-    Panels of modules the ablation does not use say so. With ``validation`` (``validation.csv``'s rows) a seventh
-    panel shows each checkpoint's validation coverage and success and marks the best one. The same rows give a
-    byte-identical PNG."""
+    Panels of modules the ablation does not use say so. With ``validation`` (``validation.csv``'s rows) a
+    seventh panel shows each checkpoint's validation coverage and success and marks the best one. The same
+    rows give a byte-identical PNG."""
     from matplotlib.figure import Figure  # no pyplot: no window, no global state
 
     figure = Figure(figsize=(17, 7) if validation else (13, 7))
@@ -104,7 +104,8 @@ def plot_curves(
 
 
 def _plot_validation(axis, validation: list[dict]) -> None:
-    """Mean validation coverage and success rate over the training layouts per checkpoint; the best one marked."""
+    """Mean validation coverage and success rate over the training layouts per checkpoint; the best one
+    marked."""
     iterations = sorted({int(row["iteration"]) for row in validation})
     for metric, colour in (("coverage", "tab:green"), ("success", "tab:orange")):
         means = [

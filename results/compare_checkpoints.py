@@ -4,8 +4,8 @@ Usage: python results/compare_checkpoints.py [RUNS]   (from the repository root;
 runs/train_policies, the run directories of results/train_policies.sh; about 20 minutes on 2 cores)
 
 For every run directory with a validation.csv, the policy of its best checkpoint there
-(``cabinbench.training_records.best_checkpoint``) and of its last one play 20 a320_cell episodes (seeds 0-19) and 4
-full_cabin episodes (seeds 0-3). Prints one row per run, then the mean per ablation: the table behind
+(``cabinbench.training_records.best_checkpoint``) and of its last one play 20 a320_cell episodes (seeds 0-19)
+and 4 full_cabin episodes (seeds 0-3). Prints one row per run, then the mean per ablation: the table behind
 ``TrainConfig.export``'s choice.
 """
 
@@ -60,26 +60,21 @@ def main(argv: list[str]) -> int:
         for choice, values in measured.items():
             by_ablation[config.ablation][choice].append(values)
             by_ablation["all runs"][choice].append(values)
-        print(
-            f"| {run.name} | {best} | "
-            + " | ".join(f"{b:.3g} / {l:.3g}" for b, l in zip(measured["best"], measured["last"]))
-            + " |",
-            flush=True,
-        )
+        print(f"| {run.name} | {best} | {cells(measured['best'], measured['last'])} |", flush=True)
     print(
         "\n| ablation (mean over runs) | " + " | ".join(f"{column} best / last" for column in COLUMNS) + " |"
     )
     print("|---|" + "---:|" * len(COLUMNS))
-    for ablation, choices in sorted(
-        by_ablation.items(), key=lambda item: item[0] == "all runs"
-    ):  # all runs last
-        best, last = np.mean(choices["best"], axis=0), np.mean(choices["last"], axis=0)
-        print(
-            f"| {ablation} ({len(choices['best'])}) | "
-            + " | ".join(f"{b:.3g} / {l:.3g}" for b, l in zip(best, last))
-            + " |"
-        )
+    all_runs_last = sorted(by_ablation.items(), key=lambda item: item[0] == "all runs")
+    for ablation, choices in all_runs_last:
+        means = {choice: np.mean(values, axis=0) for choice, values in choices.items()}
+        print(f"| {ablation} ({len(choices['best'])}) | {cells(means['best'], means['last'])} |")
     return 0
+
+
+def cells(best_values, last_values) -> str:
+    """One table cell "best / last" per column."""
+    return " | ".join(f"{best:.3g} / {last:.3g}" for best, last in zip(best_values, last_values))
 
 
 if __name__ == "__main__":

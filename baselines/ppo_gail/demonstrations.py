@@ -7,8 +7,9 @@ The file schema is fixed by the demonstration recorder:
 - ``episode``: int32 ``[N]``, the index of the episode each step belongs to;
 - ``observation_config``: a 0-d string array holding a JSON description of the observation layout.
 
-GAIL only needs the (observation, action) pairs; ``episode`` is validated so that a malformed recording is caught
-here rather than by whoever reads it next. Every error names the offending file and what is wrong with it.
+GAIL only needs the (observation, action) pairs; ``episode`` is validated so that a malformed recording is
+caught here rather than by whoever reads it next. Every error names the offending file and what is wrong with
+it.
 """
 
 from __future__ import annotations
@@ -42,9 +43,10 @@ def load_demonstrations(
         paths: One ``.npz`` path or a sequence of them.
         observation_dim: Size ``D`` of the environment's policy observation; every file must match it.
         action_dim: Size ``A`` of the environment's action; every file must match it.
-        expected_observation_config: The environment's observation layout, as a dict or a JSON string. When given,
-            each file's ``observation_config`` must describe the same layout. When omitted, all files must at least
-            agree with each other, so demonstrations of different layouts are never mixed silently.
+        expected_observation_config: The environment's observation layout, as a dict or a JSON string.
+            When given, each file's ``observation_config`` must describe the same layout. When omitted, all
+            files must at least agree with each other, so demonstrations of different layouts are never mixed
+            silently.
 
     Returns:
         ``(observations [N, D], actions [N, A])``, both float32 CPU tensors.
@@ -114,7 +116,8 @@ def _load_file(
         )
     if actions.shape[1] != action_dim:
         raise DemonstrationError(
-            f"{path}: action size {actions.shape[1]} does not match the environment's action size {action_dim}."
+            f"{path}: action size {actions.shape[1]} does not match the environment's "
+            f"action size {action_dim}."
         )
     if not np.issubdtype(episode.dtype, np.integer):
         raise DemonstrationError(f"{path}: 'episode' must hold integers, got dtype {episode.dtype}.")
@@ -146,7 +149,8 @@ def _load_file(
 
 
 def _parse_config(config: dict | str, source: str = "expected_observation_config") -> object:
-    """Return an observation layout as a JSON value, so layouts compare regardless of key order or whitespace."""
+    """Return an observation layout as a JSON value, so layouts compare regardless of key order or
+    whitespace."""
     if not isinstance(config, str):
         # Round-trip through JSON so that, e.g., tuples and lists compare equal like they do once serialised.
         return json.loads(json.dumps(config))
