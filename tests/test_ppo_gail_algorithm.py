@@ -32,11 +32,12 @@ EXTRA_LOSSES = {
 
 
 class PointMassEnv(VecEnv):
-    """Batched 2-D point mass; the episode ends when it is within GOAL_RADIUS of the goal, or on the time limit.
+    """Batched 2-D point mass; the episode ends when it is within GOAL_RADIUS of the goal, or on the time
+    limit.
 
-    Observation: goal position relative to the mass, and velocity. Action: desired velocity in [-1, 1]^2, followed
-    with a first-order lag. Reward: progress towards the goal plus 1 on success, or nothing (``extrinsic_reward``
-    False) when a test wants the agent to learn from the GAIL reward alone.
+    Observation: goal position relative to the mass, and velocity. Action: desired velocity in [-1, 1]^2,
+    followed with a first-order lag. Reward: progress towards the goal plus 1 on success, or nothing
+    (``extrinsic_reward`` False) when a test wants the agent to learn from the GAIL reward alone.
     """
 
     TIME_STEP = 0.1
@@ -217,8 +218,8 @@ def test_curiosity_forward_loss_decreases_on_fixed_data(demonstrations):
 def test_discriminator_separates_expert_from_random_pairs(demonstrations, tmp_path):
     alg = make_runner("ppo_gail_only", demonstrations).alg
     generator = torch.Generator().manual_seed(3)
-    # Fixed agent data: random actions, half in random states and half in the expert's own states, so that D has to
-    # judge the action as well as the state.
+    # Fixed agent data: random actions, half in random states and half in the expert's own states, so that D
+    # has to judge the action as well as the state.
     num_expert = alg.expert_observations.shape[0]
     agent_states = torch.cat([alg.expert_observations, random_states(num_expert, generator)])
     agent_actions = torch.rand(2 * num_expert, 2, generator=generator) * 2 - 1
@@ -238,7 +239,8 @@ def test_discriminator_separates_expert_from_random_pairs(demonstrations, tmp_pa
     # In the expert's states, the expert's action earns more than a random one.
     assert expert_reward.mean() > random_action_reward.mean()
     assert (expert_reward > random_action_reward).float().mean() > 0.9
-    # The logit reward is a penalty where the agent does not look like the expert, not a bonus for being alive.
+    # The logit reward is a penalty where the agent does not look like the expert, not a bonus for being
+    # alive.
     assert (random_reward < 0).float().mean() > 0.5
 
 
@@ -255,8 +257,8 @@ def test_gail_reward_is_centred_on_the_rollout_so_ending_early_pays_nothing(demo
 
 
 def test_shaping_columns_are_all_that_the_icm_and_the_discriminator_see(demonstrations):
-    # Only the relative goal position: the velocity stands in for a part of the observation, such as the coverage
-    # patch, that the demonstrations show differently from the agent whatever the agent does.
+    # Only the relative goal position: the velocity stands in for a part of the observation, such as the
+    # coverage patch, that the demonstrations show differently from the agent whatever the agent does.
     runner = make_runner("ppo_gail", demonstrations, shaping_columns=[0, 1])
     runner.learn(num_learning_iterations=2)
 
@@ -343,15 +345,19 @@ def _write_demonstration(path, **overrides) -> str:
     return str(path)
 
 
-def test_loading_a_valid_demonstration(tmp_path):
-    path = _write_demonstration(tmp_path / "ok.npz")
+def test_demonstration_files_load_as_their_pairs_in_file_order(tmp_path):
+    first_observations = np.arange(40, dtype=np.float32).reshape(10, 4)
+    first = _write_demonstration(tmp_path / "first.npz", observations=first_observations)
+    second = _write_demonstration(tmp_path / "second.npz", actions=np.full((10, 2), -0.5, np.float32))
 
     observations, actions = load_demonstrations(
-        [path, path], 4, 2, expected_observation_config=OBSERVATION_CONFIG
+        [first, second], 4, 2, expected_observation_config=OBSERVATION_CONFIG
     )
 
-    assert observations.shape == (20, 4) and actions.shape == (20, 2)
     assert observations.dtype == actions.dtype == torch.float32
+    torch.testing.assert_close(observations[:10], torch.from_numpy(first_observations))
+    torch.testing.assert_close(observations[10:], torch.zeros(10, 4))
+    torch.testing.assert_close(actions, torch.cat([torch.zeros(10, 2), torch.full((10, 2), -0.5)]))
 
 
 @pytest.mark.parametrize(

@@ -1,7 +1,7 @@
-"""Training pipeline of the learned baselines: train, checkpoint, interrupt and resume, export, reload, evaluate.
+"""The learned baselines' training: train, checkpoint, interrupt and resume, export, reload, evaluate.
 
-A CI smoke test on tiny settings (8 envs x 16 steps, episodes of 30 steps), plus the exported actor against rsl-rl's
-own inference policy, the errors of bad policy files, and the CLI's usage errors.
+A CI smoke test on tiny settings (8 envs x 16 steps, episodes of 30 steps), plus the exported actor against
+rsl-rl's own inference policy, the errors of bad policy files, and the CLI's usage errors.
 """
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl's logger imports GitPython
 
@@ -19,14 +20,15 @@ import pytest
 import torch
 
 from cabinbench import training_records
-from cabinbench.agents import EpisodeContext, load_baseline
+from cabinbench.agents import load_baseline
 from cabinbench.baselines.ppo_gail import training
 from cabinbench.baselines.ppo_gail.algorithm import PPOCuriosityGail
 from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR, PolicyFileError, read_policy_file
+from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.episodes import run_episode
-from cabinbench.layout import load_layout
 
 SHIPPED = ("ppo_gail", "ppo", "ppo_icm", "ppo_gail_only")
+COMMITTED_TRAINING = Path(__file__).resolve().parents[1] / "results" / "training"
 
 
 def tiny_config(**overrides) -> training.TrainConfig:
@@ -133,10 +135,10 @@ def test_train_interrupt_resume_export_reload_and_evaluate(tmp_path, monkeypatch
 
 
 def test_every_checkpoint_is_validated_and_the_last_or_the_best_exported(tmp_path, monkeypatch):
-    """Every checkpoint plays the validation episodes (seeds apart from the leaderboard's) on every training layout.
-    Ctrl-C during validation keeps the finished rows, and a resumed run plays only the checkpoints not yet validated.
-    policy.pt is the last checkpoint's actor, or with export="best" (which a finished run may be resumed to change)
-    the best validated one's."""
+    """Every checkpoint plays the validation episodes (seeds apart from the leaderboard's) on every training
+    layout. Ctrl-C during validation keeps the finished rows, and a resumed run plays only the checkpoints not
+    yet validated. policy.pt is the last checkpoint's actor, or with export="best" (which a finished run may
+    be resumed to change) the best validated one's."""
     from cabinbench import episodes
 
     run_dir = tmp_path / "run"
@@ -206,15 +208,19 @@ def _same_actor(path, other_path) -> bool:
 
 
 def test_training_with_a_coverage_patch_keeps_it_from_the_icm_and_the_discriminator(tmp_path):
-    """The actor sees the patch; the reward-shaping modules see the 64 rays and the velocity only."""
-    result = training.train(
-        tiny_config(coverage_patch=4, iterations=1, save_interval=1), tmp_path / "run", progress=False
-    )
+    """The actor sees the whole observation; the reward-shaping modules see every part of it but the patch."""
+    config = tiny_config(coverage_patch=4, iterations=1, save_interval=1)
+    result = training.train(config, tmp_path / "run", progress=False)
+    env = CoverageEnv(config.layouts[0], **config.env_kwargs)
+    sizes = {part: span.stop - span.start for part, span in env.observation_layout.items()}
     checkpoint = torch.load(tmp_path / "run" / "checkpoints" / "model_000001.pt", weights_only=True)
-    shaping_inputs, actions = 6 * 64 + 2, 2
+    shaping_inputs = sizes["lidar"] + sizes["velocity"]
+    actions = env.action_space.shape[0]
     assert _input_size(checkpoint["discriminator_state_dict"]) == shaping_inputs + actions
     assert _input_size(checkpoint["curiosity_state_dict"]) == shaping_inputs
-    assert read_policy_file(result.policy_path)["observation_config"]["size"] == shaping_inputs + 4 * 4
+    exported = read_policy_file(result.policy_path)
+    assert exported["actor"]["observation_size"] == sum(sizes.values()) == env.observation_space.shape[0]
+    assert exported["observation_config"]["size"] == env.observation_space.shape[0]
 
 
 def _input_size(state_dict: dict) -> int:
@@ -231,7 +237,8 @@ def test_exported_actor_reproduces_rsl_rl_inference_policy(tmp_path):
     from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
 
     torch.manual_seed(0)
-    env = RslRlVecEnv(BatchedCoverageEnv("a320_cell", 4, seed=0, max_steps=50))
+    batched = BatchedCoverageEnv("a320_cell", 4, seed=0, max_steps=50)
+    env = RslRlVecEnv(batched)
     runner = OnPolicyRunner(
         env, make_train_cfg("ppo", num_steps_per_env=8, hidden_dims=[48, 24], activation="tanh"), log_dir=None
     )
@@ -240,7 +247,7 @@ def test_exported_actor_reproduces_rsl_rl_inference_policy(tmp_path):
         runner,
         tmp_path / "policy.pt",
         ablation="ppo",
-        observation_config={"size": 386},
+        observation_config=batched.example_env.observation_config,
         env_config={},
         training={},
     )
@@ -248,7 +255,7 @@ def test_exported_actor_reproduces_rsl_rl_inference_policy(tmp_path):
     network = read_policy_file(path)["network"]
     reference = runner.get_inference_policy("cpu")
     generator = torch.Generator().manual_seed(1)
-    observations = torch.rand(256, 386, generator=generator) * 1.2 - 0.1
+    observations = torch.rand(256, batched.observation_size, generator=generator) * 1.2 - 0.1
     with torch.no_grad():
         expected = reference(TensorDict({"policy": observations}, batch_size=[256]))
         actual = network(observations)
@@ -320,8 +327,8 @@ def test_stochastic_option_samples_the_trained_gaussian_reproducibly(tmp_path):
 
 
 def test_a_policy_runs_in_the_observation_it_was_trained_on(tmp_path):
-    """A policy trained with a coverage patch carries that setting: run_episode and the run CLI make the env with it,
-    and the run's records say so."""
+    """A policy trained with a coverage patch carries that setting: run_episode and the run CLI make the env
+    with it, and the run's records say so."""
     policy = _small_policy(tmp_path, coverage_patch=4)
     baseline = load_baseline("ppo", checkpoint=str(policy))
     assert baseline.env_options["coverage_patch"] == 4
@@ -394,7 +401,15 @@ def test_train_cli_options_set_the_training_config(tmp_path):
                 "--random-start",
                 "--coverage-patch",
                 "8",
+                "--coverage-patch-cell",
+                "0.25",
                 "--no-terminate-on-bound",
+                "--reward",
+                "paper",
+                "--demo-episodes",
+                "8",
+                "--demo-action-noise",
+                "0.3",
                 "--algorithm",
                 '{"gamma": 0.995}',
                 "--run-dir",
@@ -403,10 +418,29 @@ def test_train_cli_options_set_the_training_config(tmp_path):
         )
     )
     assert (config.ablation, config.seed, config.iterations) == ("ppo_icm", 3, 7)
-    assert config.random_start and config.coverage_patch == 8 and not config.terminate_on_bound
+    assert config.random_start and not config.terminate_on_bound and config.reward == "paper"
+    assert (config.coverage_patch, config.coverage_patch_cell) == (8, 0.25)
+    assert (config.demo_episodes, config.demo_action_noise) == (8, 0.3)
     assert config.algorithm == {"gamma": 0.995} and run_dir == tmp_path
     defaults, _ = build_config(parse_args(["--baseline", "ppo"]))
     assert defaults == training.TrainConfig(ablation="ppo")
+
+
+def test_committed_training_configs_read_back_as_they_were_written():
+    """``config.json`` is ``TrainConfig.to_dict()``, which ``from_dict`` reads back (a resumed run, the
+    leaderboard's reward-signal columns): every committed one round-trips to the same bytes, with the
+    ablation's ``use_curiosity`` and ``use_gail``."""
+    paths = sorted(COMMITTED_TRAINING.rglob("config.json"))
+    assert len(paths) >= 4
+    for path in paths:
+        text = path.read_text()
+        config = training.TrainConfig.from_dict(json.loads(text))
+        assert json.dumps(config.to_dict(), indent=2) + "\n" == text, path
+        assert {"use_curiosity", "use_gail"} <= json.loads(text).keys()  # what the leaderboard reads
+    with pytest.raises(ValueError, match="unknown TrainConfig field.*'gail_strenght'"):
+        training.TrainConfig.from_dict({**json.loads(text), "gail_strenght": 0.1})
+    with pytest.raises(ValueError, match="unknown ablation 'nope'"):
+        training.TrainConfig.from_dict({"ablation": "nope"})
 
 
 def test_train_cli_rejects_unknown_baseline():
@@ -423,7 +457,9 @@ def test_train_cli_rejects_unknown_baseline():
 
 
 @pytest.mark.parametrize("name", SHIPPED)
-def test_shipped_policy_loads_and_acts(name):
+def test_shipped_policy_drives_the_env_made_with_its_observation_settings(name):
+    """``run --baseline NAME`` with no checkpoint: the shipped policy file loads, the env is made with the
+    observation settings it was trained on, and the policy drives it and cleans some floor."""
     path = CHECKPOINT_DIR / f"{name}.pt"
     assert path.is_file(), (
         f"{path} is missing: train it with python -m cabinbench.train --baseline {name} --ship"
@@ -431,12 +467,10 @@ def test_shipped_policy_loads_and_acts(name):
     assert path.stat().st_size < 1_000_000
     policy = read_policy_file(path)
     assert policy["ablation"] == name and policy["training"]["iterations"] > 0
-    baseline = load_baseline(name)
-    layout = load_layout("a320_cell")
-    observation = np.zeros(policy["observation_config"]["size"], dtype=np.float32)
-    baseline.reset(EpisodeContext(layout, "sequential", 0, env_config=baseline.env_options), observation, {})
-    action = baseline.act(observation, {})
-    assert action.shape == (2,) and np.all(np.abs(action) <= 1.0)
+    # the baseline refuses an env whose observation differs from the policy's (PolicyFileError)
+    record, trajectory = run_episode(name, "a320_cell", seed=0, env_kwargs={"max_steps": 60})
+    assert record["steps"] == 60 and record["path_length"] > 0
+    assert trajectory["coverage"][-1] > trajectory["coverage"][0]
 
 
 def test_ship_installs_the_policy_and_keeps_its_training_records(tmp_path, monkeypatch):
