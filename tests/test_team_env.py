@@ -206,7 +206,7 @@ def test_bad_actions_are_refused():
         env.step({"robot_7": [0.0, 0.0]})
     with pytest.raises(ValueError, match="NaN"):
         env.step({"robot_0": [math.nan, 0.0]})
-    with pytest.raises(ValueError, match="2 entries"):
+    with pytest.raises(ValueError, match=r"must have shape \(2,\)"):
         env.step({"robot_0": [0.0, 0.0, 0.0]})
 
 
@@ -244,9 +244,10 @@ def test_supersuit_vector_env_steps_and_resets():
     env = supersuit.pettingzoo_env_to_vec_env_v1(cabinbench.parallel_env(**SMALL, max_cycles=3))
     envs = supersuit.concat_vec_envs_v1(env, 2, num_cpus=0, base_class="gymnasium")
     observations, _ = envs.reset(seed=0)
-    assert observations.shape == (4, 386)  # 2 envs × 2 robots
+    size = cabinbench.parallel_env(**SMALL).observation_space("robot_0").shape[0]
+    assert observations.shape == (4, size)  # 2 envs × 2 robots
     for step in range(5):  # the episodes end at step 3 and reset themselves
         observations, rewards, terminations, truncations, infos = envs.step(np.full((4, 2), 0.5))
-        assert observations.shape == (4, 386) and rewards.shape == (4,)
+        assert observations.shape == (4, size) and rewards.shape == (4,)
         assert truncations.all() == (step == 2)
     envs.close()

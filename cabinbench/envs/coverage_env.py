@@ -1,49 +1,92 @@
 """Single-robot coverage env (Gymnasium).
 
+## Description
+
 A disc robot cleans an airline-cabin layout, seeing only its own lidar and velocity (seed §4.3.2:
-global coordinates do not generalise across cabins).
+global coordinates do not generalise across cabins). Made by ``gymnasium.make("CabinBench/A320Cell-v0")``
+(one id per built-in layout) or ``gymnasium.make("CabinBench/Coverage-v0", layout=...)``.
 
-**Action**: ``Box(-1, 1, (2,), float32)`` = (linear, angular). Linear × ``max_speed`` is the
-forward speed (m/s, negative reverses); angular × ``max_turn_rate`` is the turn rate (rad/s,
-counter-clockwise). Out-of-range values are clipped to [-1, 1]; NaN or infinite values raise
-``ValueError`` (a silent zero would hide a diverged policy).
+## Action Space
 
-**Observation**: ``Box(float32, (6 * n_rays + coverage_patch² + 2,))``. For each lidar ray
-(evenly spread over the field of view, starting behind the robot and turning counter-clockwise):
-the hit distance divided by the range (1 when nothing is hit), then a one-hot of what was hit, in
-the order ``obstacle, bound, goal, exit, robot`` (all zero when nothing is). With
-``coverage_patch = n > 0`` come next n × n entries in [0, 1]: an egocentric window of
-``coverage_patch_cell``-metre cells centred on the robot and turned with it, each the fraction of
-its cell that is floor still to be cleaned (:class:`~cabinbench.coverage.CoveragePatch`; rows from
-behind to ahead, columns from right to left; in ``sequential`` only the current cell's floor, and
-the next cell's once its passage is open; never that of cells the layout starts cleared). Last
-come the achieved forward speed / ``max_speed`` and turn rate / ``max_turn_rate``. Bounds are
-shown only while closed, goal markers only while unreached (in ``sequential``: only those of the
-current cell), exits only while their passage is open.
+``Box(-1, 1, (2,), float32)``:
 
-**Reward**: the preset named by ``reward`` (:mod:`cabinbench.rewards`): ``paper`` (seed Tables
-4.4/4.5) or ``coverage`` (dense, per newly covered area).
+| Index | Action  | Min | Max | Unit once scaled                                    |
+|-------|---------|-----|-----|-----------------------------------------------------|
+| 0     | linear  | -1  | 1   | × ``max_speed``: forward speed, m/s (negative backs) |
+| 1     | angular | -1  | 1   | × ``max_turn_rate``: turn rate, rad/s, counter-clockwise |
 
-**Episode end**: terminated when the layout's success criterion is met (``sequential``: every
-cell cleared; ``open``: coverage ≥ the layout's ``success_coverage``), or on a bound contact if
-``terminate_on_bound``; truncated after ``max_steps`` (default: the layout's). Each step is
-0.1 simulated seconds.
+Out-of-range values are clipped to [-1, 1]. An action of another shape (``(4,)``, ``(2, 1)``,
+``()``), NaN or infinity raises ``ValueError`` (a silent zero would hide a diverged policy).
 
-**Info**: the running metrics (``coverage``, ``path_length``, ``time``, ``collisions``,
-``cells_cleared`` ...) and ``pose`` = (x, y, heading) for planners (not for learners: it is not
-part of the observation). The last step's info carries ``episode_record``, one value per metric
-of :mod:`cabinbench.metrics`.
+## Observation Space
 
-**Start**: the layout's start pose; with ``random_start``, a pose drawn from the env's seeded
-generator at each reset: the centre of a random pixel of the start cell where the robot fits and
-that the start reaches, and a uniform heading (for training: from one fixed start a policy can
-learn one route rather than a behaviour).
+``Box(float32, (6 * n_rays + coverage_patch² + 2,))``; ``env.unwrapped.observation_layout`` maps
+each part to its slice (:mod:`cabinbench.observation`; read observations through it). With R =
+``n_rays`` and P = ``coverage_patch`` (P = 0: no patch part):
 
-**Arguments**: ``layout`` (registered name, YAML path or a :class:`~cabinbench.layout.Layout`),
-``protocol`` (``"sequential"`` or ``"open"``), ``reward``, ``n_rays``, ``lidar_range``,
-``field_of_view``, ``lidar_noise`` (m, Gaussian), ``coverage_patch`` (cells per side, 0: none),
-``coverage_patch_cell`` (m), ``max_steps``, ``terminate_on_bound``, ``random_start``,
-``render_mode`` (``"rgb_array"`` or ``"human"``).
+| Index            | Part               | Observation                                       | Min | Max |
+|------------------|--------------------|---------------------------------------------------|-----|-----|
+| 6r               | ``lidar``          | ray r: hit distance / ``lidar_range`` (1: no hit) | 0   | 1   |
+| 6r + 1 … 6r + 5  | ``lidar``          | ray r: one-hot of the hit's tag (0s: no hit)      | 0   | 1   |
+| 6R … 6R + P² - 1 | ``coverage_patch`` | uncleaned fraction of each patch cell             | 0   | 1   |
+| 6R + P²          | ``velocity``       | achieved forward speed / ``max_speed``            | -1  | 1   |
+| 6R + P² + 1      | ``velocity``       | achieved turn rate / ``max_turn_rate``            | -1  | 1   |
+
+The lidar part is ray-major, its 6 channels per ray (distance, then the tags ``obstacle, bound,
+goal, exit, robot``) named by
+:data:`cabinbench.observation.LIDAR_CHANNELS` (read one with
+:func:`~cabinbench.observation.lidar_channel`); DESIGN.md's ``lidar_distance`` and ``lidar_tags``
+are not separate slices because the shipped policies were trained on this interleaved order. Rays
+spread evenly over ``field_of_view``, starting behind the robot and turning counter-clockwise.
+The coverage patch is an egocentric window of P × P cells of ``coverage_patch_cell`` metres,
+centred on the robot and turned with it (:class:`~cabinbench.coverage.CoveragePatch`; row-major,
+rows from behind to ahead, columns from right to left; in ``sequential`` only the current cell's
+floor counts, and the next cell's once its passage is open; never that of cells the layout starts
+cleared). Bounds are seen only while closed, goal markers only while unreached (in
+``sequential``: only those of the current cell), exits only while their passage is open.
+
+## Rewards
+
+The preset named by ``reward`` (:mod:`cabinbench.rewards`): ``paper`` (seed Tables 4.4/4.5: +0.5
+per new goal marker, -0.3 per contact, -10 per bound contact, -0.01 per step, +2 for reaching an
+exit; on the step that clears a cell the reward is set to 3) or ``coverage`` (dense: +10 × the
+newly covered fraction of the coverable area, contact -0.1, bound -1, step -0.005, cell +1, exit
++0.5).
+
+## Starting State
+
+The layout's start pose; with ``random_start``, a pose drawn from the env's seeded generator at
+each reset: the centre of a random pixel of the start cell where the robot fits and that the start
+reaches, and a uniform heading (for training: from one fixed start a policy can learn one route
+rather than a behaviour). ``lidar_noise`` is drawn from the same generator.
+
+## Episode End
+
+Terminated when the layout's success criterion is met (``sequential``: every cell cleared;
+``open``: coverage ≥ the layout's ``success_coverage``), or on a bound contact if
+``terminate_on_bound``; truncated after ``max_steps`` (default: the layout's). Each step is 0.1
+simulated seconds.
+
+## Info
+
+The running metrics (``coverage``, ``path_length``, ``time``, ``steps``, ``collisions``,
+``bound_violations``, ``cells_cleared``, ``current_cell``, ``success``) and ``pose`` = (x, y,
+heading) for planners (not for learners: it is not part of the observation). The last step's info
+carries ``episode_record``, one value per metric of :mod:`cabinbench.metrics` (``None`` for a
+``t90`` never reached).
+
+## Copies
+
+``copy.deepcopy`` and pickle give an env that continues exactly as the original (the physics
+replays the episode's commands: :mod:`cabinbench.physics`).
+
+## Arguments
+
+``layout`` (registered name, YAML path or a :class:`~cabinbench.layout.Layout`), ``protocol``
+(``"sequential"`` or ``"open"``), ``reward`` (``"paper"`` or ``"coverage"``), ``n_rays``,
+``lidar_range`` (m), ``field_of_view`` (rad), ``lidar_noise`` (m, Gaussian), ``coverage_patch``
+(cells per side, 0: none), ``coverage_patch_cell`` (m), ``max_steps``, ``terminate_on_bound``,
+``random_start``, ``render_mode`` (``"rgb_array"``: uint8 H × W × 3, or ``"human"``).
 """
 
 from __future__ import annotations
@@ -67,8 +110,9 @@ OBSERVATION_SETTINGS = ("n_rays", "lidar_range", "field_of_view", "coverage_patc
 
 
 def observation_config(env_kwargs: dict, size: int) -> dict:
-    """The observation settings of an env made with ``env_kwargs`` (``CoverageEnv``'s defaults for those not given)
-    and the observation's size: what a policy or demonstrations must have been recorded with to fit the env."""
+    """The observation settings of an env made with ``env_kwargs`` (``CoverageEnv``'s defaults for
+    those not given) and the observation's size: what a policy or demonstrations must have been
+    recorded with to fit the env."""
     defaults = {
         name: parameter.default for name, parameter in inspect.signature(CoverageEnv).parameters.items()
     }
@@ -78,12 +122,15 @@ def observation_config(env_kwargs: dict, size: int) -> dict:
     }
 
 
-def checked_action(action, size: int = 2) -> np.ndarray:
-    """The documented action policy: clip to [-1, 1]; refuse NaN and infinity."""
-    action = np.asarray(action, dtype=np.float64).reshape(-1, size)
+def checked_action(action, shape: tuple[int, ...] = (2,), name: str = "action") -> np.ndarray:
+    """The documented action policy: ``action`` must have ``shape`` (the last axis is (linear,
+    angular)); values are clipped to [-1, 1]; NaN and infinity are refused. Returns (robots, 2)."""
+    action = np.asarray(action, dtype=np.float64)
+    if action.shape != shape:
+        raise ValueError(f"{name} must have shape {shape} (linear, angular), got shape {action.shape}")
     if not np.isfinite(action).all():
-        raise ValueError(f"action contains NaN or infinity: {action.tolist()}")
-    return np.clip(action, -1.0, 1.0)
+        raise ValueError(f"{name} contains NaN or infinity: {action.tolist()}")
+    return np.clip(action, -1.0, 1.0).reshape(-1, 2)
 
 
 def observation_space(size: int) -> gym.spaces.Box:

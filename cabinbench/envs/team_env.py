@@ -16,10 +16,18 @@ raise ``ValueError``. An agent whose action is missing from the dict (or ``None`
 for that step: it does not move, turn or clean, but it still collides and is still rewarded.
 
 **Observation** (per agent): ``Box(float32, (6 * n_rays + coverage_patch² + 2,))``, the single
-env's observation of that robot: per lidar ray the distance / range and a one-hot of ``obstacle,
-bound, goal, exit, robot``, then the coverage patch if ``coverage_patch > 0`` (the team's
-uncleaned floor around that robot, as in the single env), then the achieved forward speed /
-``max_speed`` and turn rate / ``max_turn_rate``.
+env's observation of that robot, laid out as ``env.observation_layout`` (part name → slice;
+R = ``n_rays``, P = ``coverage_patch``):
+
+| Index            | Part               | Observation                                                 |
+|------------------|--------------------|-------------------------------------------------------------|
+| 6r … 6r + 5      | ``lidar``          | ray r: distance / range, one-hot of the hit's tag           |
+| 6R … 6R + P² - 1 | ``coverage_patch`` | only if P > 0: the team's uncleaned floor around the robot  |
+| 6R + P², + 1     | ``velocity``       | forward speed / ``max_speed``, turn rate / ``max_turn_rate`` |
+
+The lidar part is ray-major (the shipped policies' order), so it is one slice, not DESIGN.md's
+``lidar_distance`` and ``lidar_tags``: see :mod:`cabinbench.envs.coverage_env` and
+:mod:`cabinbench.observation`.
 
 **State** (``state()``, ``state_space``): ``Box(float32, (6 * K + 4 + n_goals,))``. Per robot,
 in agent order: x and y normalised by the layout's extent to [0, 1], cos and sin of the heading,
@@ -48,14 +56,21 @@ Each step is 0.1 simulated seconds.
 heading) (for planners, not learners); the team's ``coverage``, ``time``, ``steps``,
 ``cells_cleared``, ``current_cell`` and ``success``. The last step's info of every agent carries
 the team's ``episode_record`` (:mod:`cabinbench.metrics`, with the team metrics ``n_agents``,
-``robot_collisions``, ``path_lengths``, ``makespan`` and ``load_balance`` when K > 1).
+``robot_collisions``, ``path_lengths``, ``makespan`` and ``load_balance`` when K > 1; ``None`` for
+a ``t90`` never reached); ``env.episode_record`` holds it too (``None`` until the episode ends).
+With ``record_in_info=False`` the infos leave it out: every step's info then has the reset's keys,
+each a number or an array, as TorchRL's ``PettingZooWrapper`` requires (it converts every info
+value with ``torch.tensor`` into the spec it built from the reset's infos).
+
+**Copies**: ``copy.deepcopy`` and pickle give an env that continues exactly as the original.
 
 **Arguments**: ``layout`` (registered name, YAML path or a :class:`~cabinbench.layout.Layout`),
 ``n_agents`` (K), ``protocol`` (``"sequential"`` or ``"open"``), ``reward`` (``"paper"`` or
 ``"coverage"``), ``n_rays``, ``lidar_range`` (m), ``field_of_view`` (rad), ``lidar_noise`` (m,
 Gaussian; the only randomness, drawn from the reset seed), ``coverage_patch`` (cells per side, 0:
 none) and ``coverage_patch_cell`` (m), ``max_cycles`` (default: the
-layout's ``max_steps``), ``render_mode`` (``"rgb_array"`` or ``"human"``), ``team_weight``.
+layout's ``max_steps``), ``render_mode`` (``"rgb_array"`` or ``"human"``), ``team_weight``,
+``record_in_info``.
 """
 
 from __future__ import annotations
@@ -103,6 +118,7 @@ class TeamCoverageEnv(ParallelEnv):
         max_cycles: int | None = None,
         render_mode: str | None = None,
         team_weight: float = 0.5,
+        record_in_info: bool = True,
     ):
         if n_agents < 1:
             raise ValueError(f"n_agents must be at least 1, got {n_agents}")
@@ -116,7 +132,7 @@ class TeamCoverageEnv(ParallelEnv):
         lidar = LidarConfig(n_rays, lidar_range, field_of_view, lidar_noise)
         patch = CoveragePatch(coverage_patch, coverage_patch_cell)
         self.world = World(self.layout, n_agents, protocol, lidar, patch)  # raises when K robots do not fit
-        self.reward_preset, self.team_weight = reward, team_weight
+        self.reward_preset, self.team_weight, self.record_in_info = reward, team_weight, record_in_info
         self.max_cycles = max_cycles or self.layout.max_steps
         self.render_mode = render_mode
 
@@ -136,6 +152,7 @@ class TeamCoverageEnv(ParallelEnv):
 
         self.np_random: np.random.Generator | None = None
         self.tracker: EpisodeTracker | None = None
+        self.episode_record: dict | None = None
         self.renderer = EnvRenderer(render_mode)
 
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
@@ -159,6 +176,7 @@ class TeamCoverageEnv(ParallelEnv):
             self.np_random, _ = seeding.np_random(seed)
         self.world.reset(self.np_random)
         self.tracker = EpisodeTracker(self.world)
+        self.episode_record = None
         # The tracker sums contacts over the team; infos report them per robot.
         self._contacts = np.zeros((self.world.n_robots, 3), dtype=np.int64)  # obstacle, robot, bound
         self.agents = self.possible_agents[:]
@@ -173,13 +191,8 @@ class TeamCoverageEnv(ParallelEnv):
         for agent, action in actions.items():
             if agent not in self._index:
                 raise ValueError(f"unknown agent {agent!r}; the agents are {self.possible_agents}")
-            if action is None:
-                continue
-            if np.size(action) != 2:
-                raise ValueError(
-                    f"the action of {agent} must have 2 entries (linear, angular), got shape {np.shape(action)}"
-                )
-            commands[self._index[agent]] = checked_action(action)[0]
+            if action is not None:
+                commands[self._index[agent]] = checked_action(action, name=f"the action of {agent}")[0]
 
         events = self.world.step(commands)
         self.tracker.update(events)
@@ -195,9 +208,10 @@ class TeamCoverageEnv(ParallelEnv):
         truncations = dict.fromkeys(self.possible_agents, truncated)
         observations, infos = self._observations(), self._infos()
         if terminated or truncated:
-            record = self.tracker.record()
-            for info in infos.values():
-                info["episode_record"] = record
+            self.episode_record = self.tracker.record()
+            if self.record_in_info:
+                for info in infos.values():
+                    info["episode_record"] = self.episode_record
             self.agents = []
         if self.render_mode == "human":
             self.render()
