@@ -19,20 +19,27 @@ import torch
 from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
+from ..world import TIME_STEP
 from .coverage_env import CoverageEnv, checked_action
 
 _CONTEXT = multiprocessing.get_context("spawn")  # no fork of torch's threads
 SPIN_SECONDS = 0.002
-"""How long a process polls a pipe before it blocks on it, where the main process and the workers wait for each other
-at every step. On a virtual machine a CPU that blocks is halted and handed back to the host, and waking it is slow:
-a message between the two processes of a step took a median 40-130 µs to be picked up when blocking, 25-35 µs
-polling (``a320_cell``, 64 envs, 2 workers, on this project's 2-core VM). Waits longer than this (a training update
-between rollouts) still block. Interleaved runs of ``bench_batched`` on the same machine, old (blocking) against new:
-64 envs, 6 pairs, median 44k and 57k agent-steps/s; 256 envs, 12 pairs, 40k and 42k (within the noise)."""
+"""How long a process polls a pipe before it blocks on it, where the main process and the workers
+wait for each other at every step. On a virtual machine a CPU that blocks is halted and handed back
+to the host, and waking it is slow: a message between the two processes of a step took a median
+40-130 µs to be picked up when blocking, 25-35 µs polling (``a320_cell``, 64 envs, 2 workers, on
+this project's 2-core VM). Waits longer than this (a training update between rollouts) still block.
+Interleaved runs of ``bench_batched`` on the same machine, old (blocking) against new: 64 envs, 6
+pairs, median 44k and 57k agent-steps/s; 256 envs, 12 pairs, 40k and 42k (within the noise)."""
+
+
+class WorkerDied(RuntimeError):
+    """A worker process of a :class:`BatchedCoverageEnv` ended while the batch waited for it."""
 
 
 def _receive(connection):
-    """``connection.recv()``, after polling for up to ``SPIN_SECONDS`` (yielding to any other runnable process)."""
+    """``connection.recv()``, after polling for up to ``SPIN_SECONDS`` (yielding to any other
+    runnable process)."""
     deadline = time.perf_counter() + SPIN_SECONDS
     while not connection.poll() and time.perf_counter() < deadline:
         os.sched_yield()
@@ -141,6 +148,7 @@ class BatchedCoverageEnv:
         self.layout_names = sorted({example.layout.name for example in examples})
         self.max_steps_per_env = [examples[index % len(examples)].max_steps for index in range(num_envs)]
         self.observation_size = self.example_env.observation_space.shape[0]
+        self.observation_layout = self.example_env.observation_layout  # part name -> slice of a row
         layouts = [
             example.layout for example in examples
         ]  # parsed once, shared by the envs (which only read them)
@@ -156,25 +164,29 @@ class BatchedCoverageEnv:
             parent, child = _CONTEXT.Pipe()
             process = _CONTEXT.Process(target=_serve_shard, args=(child, *arguments), daemon=True)
             process.start()
+            child.close()  # the worker's end only: a worker that dies then ends the pipe (EOFError)
             self.workers.append((parent, process))
-        self.local = EnvShard(*shards[0])  # built while the workers build theirs
-        for parent, _ in self.workers:
-            parent.recv()
+        try:
+            self.local = EnvShard(*shards[0])  # built while the workers build theirs
+            self._replies("starting")
+        except BaseException:
+            self._stop_workers()
+            raise
 
     def step(self, actions: torch.Tensor):
-        actions = checked_action(
-            np.asarray(actions.detach().cpu() if isinstance(actions, torch.Tensor) else actions)
-        )
-        if len(actions) != self.num_envs:
-            raise ValueError(f"expected {self.num_envs} actions, got {len(actions)}")
+        if isinstance(actions, torch.Tensor):
+            actions = actions.detach().cpu()
         batch = self.batch
-        batch.actions[:] = actions
+        batch.actions[:] = checked_action(actions, (self.num_envs, 2))
         for parent, _ in self.workers:
-            parent.send(True)  # the workers step their shards while this process steps the first
+            try:  # the workers step their shards while this process steps the first
+                parent.send(True)
+            except BrokenPipeError:
+                pass  # a dead worker: reported by _replies below
         try:
             finished = self.local.step()
         finally:  # collect every reply, even if this shard failed, to keep the pipes in step
-            replies = [_receive(parent) for parent, _ in self.workers]
+            replies = self._replies("stepping")
         finished += [item for reply in replies for item in reply]
         # copies: callers keep the tensors of earlier steps
         return (
@@ -184,6 +196,29 @@ class BatchedCoverageEnv:
             torch.from_numpy(batch.truncated.copy()),
             finished,
         )
+
+    def _replies(self, doing: str) -> list:
+        """Every worker's reply; a worker that died raises :class:`WorkerDied` (never a hang)."""
+        replies = []
+        for number, (parent, process) in enumerate(self.workers, start=1):
+            try:
+                replies.append(_receive(parent))
+            except (EOFError, ConnectionError):
+                process.join(timeout=5)
+                self._stop_workers()
+                raise WorkerDied(
+                    f"worker {number} of the batched env died while {doing} (exit code {process.exitcode}; "
+                    "its error, if any, is on stderr above). With num_workers > 1 the workers are spawned "
+                    "and re-import your script: create the env under `if __name__ == '__main__':`"
+                ) from None
+        return replies
+
+    def _stop_workers(self) -> None:
+        for parent, process in self.workers:
+            process.terminate()
+            process.join(timeout=5)
+            parent.close()
+        self.workers = []
 
     def close(self) -> None:
         for parent, process in self.workers:
@@ -199,7 +234,12 @@ class BatchedCoverageEnv:
 
 
 class RslRlVecEnv(VecEnv):
-    """``rsl_rl.env.VecEnv`` over a :class:`BatchedCoverageEnv` (CPU)."""
+    """``rsl_rl.env.VecEnv`` over a :class:`BatchedCoverageEnv` (CPU).
+
+    ``max_episode_length`` is the longest step limit of the batch's layouts (rsl-rl's
+    ``learn(init_at_random_ep_len=True)`` draws ``episode_length_buf`` below it; episodes still end
+    at each env's own limit, which does not read that buffer). ``step_dt`` is the simulated seconds
+    per step and ``unwrapped`` the adapter itself (rsl-rl's RND scales its weight by them)."""
 
     LOGGED = ("coverage", "path_length", "collisions", "bound_violations", "cells_cleared", "success")
 
@@ -207,11 +247,16 @@ class RslRlVecEnv(VecEnv):
         self.env = batched
         self.num_envs = batched.num_envs
         self.num_actions = 2
-        self.max_episode_length = torch.tensor(batched.max_steps_per_env)
+        self.max_episode_length = max(batched.max_steps_per_env)
+        self.step_dt = TIME_STEP
         self.episode_length_buf = torch.zeros(self.num_envs, dtype=torch.long)
         self.device = "cpu"
         self.cfg = {"layouts": batched.layout_names, "num_envs": batched.num_envs}
         self._observations = torch.from_numpy(batched.observations.copy())
+
+    @property
+    def unwrapped(self) -> RslRlVecEnv:
+        return self
 
     def get_observations(self) -> TensorDict:
         # a fresh tensor each call: PPO keeps a reference to the previous observation
