@@ -42,7 +42,10 @@ def observed_patch(env, observation):
 
 def test_patch_sits_between_the_rays_and_the_velocities_and_leaves_them_alone():
     plain, patched = CoverageEnv("a320_cell"), CoverageEnv("a320_cell", coverage_patch=CELLS)
-    assert patched.observation_space.shape == (6 * 64 + CELLS * CELLS + 2,)
+    parts = patched.observation_layout
+    assert patched.observation_space.shape == (parts["velocity"].stop,)
+    assert parts["coverage_patch"] == slice(parts["lidar"].stop, parts["lidar"].stop + CELLS * CELLS)
+    assert plain.observation_layout["lidar"] == parts["lidar"]
     assert (
         patched.observation_config["coverage_patch"] == CELLS
         and plain.observation_config["coverage_patch"] == 0
@@ -51,7 +54,7 @@ def test_patch_sits_between_the_rays_and_the_velocities_and_leaves_them_alone():
     second, _ = patched.reset(seed=0)
     rng = np.random.default_rng(0)
     for _ in range(200):
-        np.testing.assert_array_equal(first[:384], second[:384])
+        np.testing.assert_array_equal(first[parts["lidar"]], second[parts["lidar"]])
         np.testing.assert_array_equal(first[-2:], second[-2:])
         assert patched.observation_space.contains(second)
         action = rng.uniform(-1, 1, 2)

@@ -1,57 +1,94 @@
-"""Every registered Gymnasium id, in the MiniGrid pattern: the checker (with renders), many-step
-determinism, rendering, pickling and make_vec. A new built-in layout is tested for free."""
+"""Every registered Gymnasium id and the team env, in the MiniGrid pattern: the checker (with
+renders), the observation layout, many-step determinism, rendering, copies. A new built-in layout
+is tested for free."""
 
+import copy
 import pickle
 
 import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
+from pettingzoo.test import parallel_api_test
 
-import cabinbench  # noqa: F401  (registers the ids)
+import cabinbench
 from cabinbench.metrics import METRICS
+from cabinbench.observation import LIDAR_CHANNELS
 
 ENV_IDS = [env_id for env_id in gym.registry if env_id.startswith("CabinBench/")]
+TEAM = "team env (a320_cell, 2 robots)"
 
 
-def rollout(env, seed: int, steps: int):
-    observation, _ = env.reset(seed=seed)
-    actions = np.random.default_rng(seed).uniform(-1, 1, (steps, 2))
-    trace = [observation]
-    for action in actions:
+def make(name: str, **kwargs):
+    if name == TEAM:
+        return cabinbench.parallel_env(layout="a320_cell", n_agents=2, **kwargs)
+    return gym.make(name, **kwargs).unwrapped
+
+
+def spaces_of(env) -> list:
+    if isinstance(env, gym.Env):
+        return [env.observation_space]
+    return [env.observation_space(agent) for agent in env.possible_agents]
+
+
+def step(env, action: np.ndarray) -> tuple[np.ndarray, bool]:
+    """One step with every robot on ``action``: (observations, rewards and poses flat; episode over)."""
+    if isinstance(env, gym.Env):
         observation, reward, terminated, truncated, info = env.step(action)
-        trace.append(np.append(observation, [reward, *info["pose"]]))
-        if terminated or truncated:
+        return np.append(observation, [reward, *info["pose"]]), terminated or truncated
+    observations, rewards, _, _, infos = env.step(dict.fromkeys(env.agents, action))
+    flat = [np.append(observations[a], [rewards[a], *infos[a]["pose"]]) for a in env.possible_agents]
+    return np.concatenate(flat), not env.agents
+
+
+def rollout(env, seed: int, steps: int) -> np.ndarray:
+    env.reset(seed=seed)
+    trace = []
+    for action in np.random.default_rng(seed).uniform(-1, 1, (steps, 2)):
+        values, over = step(env, action)
+        trace.append(values)
+        if over:
             break
     return np.concatenate(trace)
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
-def test_env_passes_gymnasium_checker(env_id):
-    env = gym.make(env_id, render_mode="rgb_array")
-    check_env(env.unwrapped, skip_render_check=False)
-    env.close()
+def assert_layout_tiles(observation_layout: dict, size: int, n_rays: int) -> None:
+    parts = sorted(observation_layout.values(), key=lambda part: part.start)
+    assert parts[0].start == 0 and parts[-1].stop == size
+    assert all(left.stop == right.start for left, right in zip(parts, parts[1:]))
+    lidar = observation_layout["lidar"]
+    assert lidar.stop - lidar.start == n_rays * len(LIDAR_CHANNELS)
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
-def test_same_seed_same_trajectory(env_id):
-    first = rollout(gym.make(env_id, lidar_noise=0.02), seed=7, steps=300)
-    second = rollout(gym.make(env_id, lidar_noise=0.02), seed=7, steps=300)
-    np.testing.assert_array_equal(first, second)
-    other = rollout(gym.make(env_id, lidar_noise=0.02), seed=8, steps=300)
+@pytest.mark.parametrize("name", [*ENV_IDS, TEAM])
+def test_every_env(name):
+    env = make(name, render_mode="rgb_array")
+    if isinstance(env, gym.Env):
+        check_env(gym.make(name, render_mode="rgb_array").unwrapped, skip_render_check=False)
+    else:
+        parallel_api_test(make(name), num_cycles=200)
+
+    for kwargs in ({}, {"n_rays": 16, "coverage_patch": 8}):
+        made = make(name, **kwargs)
+        for space in spaces_of(made):
+            assert_layout_tiles(made.observation_layout, space.shape[0], kwargs.get("n_rays", 64))
+        assert ("coverage_patch" in made.observation_layout) == bool(kwargs)
+
+    first = rollout(make(name, lidar_noise=0.02), seed=7, steps=200)
+    np.testing.assert_array_equal(first, rollout(make(name, lidar_noise=0.02), seed=7, steps=200))
+    other = rollout(make(name, lidar_noise=0.02), seed=8, steps=200)
     assert first.shape != other.shape or not np.array_equal(first, other)
 
-
-@pytest.mark.parametrize("env_id", ENV_IDS)
-def test_render_and_pickle(env_id):
-    env = gym.make(env_id, render_mode="rgb_array")
     env.reset(seed=0)
-    env.step(env.action_space.sample())
+    for action in np.random.default_rng(0).uniform(-1, 1, (30, 2)):
+        step(env, action)
     frame = env.render()
     assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3 and min(frame.shape[:2]) >= 60
-    clone = pickle.loads(pickle.dumps(env.unwrapped))
-    action = np.array([0.7, 0.2])
-    np.testing.assert_array_equal(clone.step(action)[0], env.unwrapped.step(action)[0])
+    copies = [copy.deepcopy(env), pickle.loads(pickle.dumps(env))]
+    for action in np.random.default_rng(1).uniform(-1, 1, (20, 2)):
+        values = step(env, action)[0]
+        for clone in copies:
+            np.testing.assert_array_equal(step(clone, action)[0], values)
 
 
 def test_generic_id_takes_a_layout_name_or_file(tmp_path):
@@ -69,7 +106,7 @@ def test_generic_id_takes_a_layout_name_or_file(tmp_path):
 def test_make_vec_steps_several_envs():
     envs = gym.make_vec("CabinBench/A320Cell-v0", num_envs=3, vectorization_mode="sync")
     observations, _ = envs.reset(seed=0)
-    assert observations.shape == (3, 386)
+    assert observations.shape == (3, gym.make("CabinBench/A320Cell-v0").observation_space.shape[0])
     observations, rewards, *_ = envs.step(np.zeros((3, 2)))
     assert rewards.shape == (3,)
     envs.close()
@@ -79,11 +116,11 @@ def test_random_full_cabin_episode_has_every_metric():
     env = gym.make("CabinBench/FullCabin-v0", max_steps=3000)
     env.reset(seed=0)
     rng = np.random.default_rng(0)
-    for step in range(3000):
+    for _ in range(3000):
         *_, terminated, truncated, info = env.step(rng.uniform(-1, 1, 2))
         if terminated or truncated:
             break
-    assert step == 2999 and truncated
+    assert truncated
     record = info["episode_record"]
     assert set(METRICS) <= set(record)
     assert record["steps"] == 3000 and record["time"] == pytest.approx(300.0)

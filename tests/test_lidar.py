@@ -1,6 +1,6 @@
-"""The simulated lidar sees what the robot collides with: every ray's range and tag equal pymunk's own segment
-queries against the world's wall and bound shapes (those in the physics space now), and its circle queries against
-the shown goal and exit markers."""
+"""The simulated lidar sees what the robot collides with: every ray's range and tag equal pymunk's
+own segment queries against the world's wall and bound shapes (those in the physics space now), and
+its circle queries against the shown goal and exit markers."""
 
 import math
 
@@ -18,9 +18,9 @@ SEGMENT_TAGS = {WALL_TYPE: OBSTACLE, BOUND_TYPE: BOUND}
 def pymunk_scan(
     world, circle_on: np.ndarray, x: float, y: float, heading: float
 ) -> tuple[np.ndarray, list[set]]:
-    """Range of every ray by pymunk, and the tags of what it hits at that range (a ray into a corner where a bound
-    meets a wall hits both): the nearest hit over the space's segments and the shown discs (a disc holding the ray
-    origin is skipped, as the lidar skips the robot's own)."""
+    """Range of every ray by pymunk, and the tags of what it hits at that range (a ray into a corner
+    where a bound meets a wall hits both): the nearest hit over the space's segments and the shown
+    discs (a disc holding the ray origin is skipped, as the lidar skips the robot's own)."""
     max_range = world.lidar.max_range
     static = pymunk.Body(body_type=pymunk.Body.STATIC)
     targets = [
@@ -47,7 +47,8 @@ def pymunk_scan(
     return np.array(distances), tags
 
 
-# at reset the tracking cell shows its exit through the open bound; full_cabin's first cell its goals and bound
+# at reset the tracking cell shows its exit through the open bound; full_cabin's first cell its goals
+# and bound
 @pytest.mark.parametrize(
     "layout, tags_to_see", [("a320_tracking_cell", {EXIT}), ("full_cabin", {GOAL, BOUND})]
 )
