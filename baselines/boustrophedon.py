@@ -82,12 +82,13 @@ from scipy.optimize import linear_sum_assignment
 from scipy.sparse.csgraph import dijkstra
 
 from cabinbench.agents import Baseline, EpisodeContext
+from cabinbench.geometry import pixels_to_world, world_to_pixel
 from cabinbench.layout import RESOLUTION, Layout
 from cabinbench.lidar import LidarConfig
 from cabinbench.observation import LIDAR_CHANNELS, lidar_rays
 from cabinbench.world import TIME_STEP, start_poses
 
-from .coverage_planning import FreeSpace, driving_time, pixels_to_world, plan_coverage, world_to_pixel
+from .coverage_planning import FreeSpace, driving_time, plan_coverage
 from .path_following import PathFollower
 
 BOUND_MARGIN = 0.03  # metres kept between the robot's disc and a closed bound

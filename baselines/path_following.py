@@ -22,10 +22,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-
-def wrap_angle(angle: float) -> float:
-    """Angle wrapped to [-pi, pi)."""
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+from cabinbench.geometry import wrap_angle
 
 
 class PathFollower:

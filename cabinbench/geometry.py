@@ -13,8 +13,8 @@ from collections.abc import Sequence
 import numpy as np
 
 
-def wrap_angle(angle: float) -> float:
-    """Angle wrapped to [-pi, pi)."""
+def wrap_angle(angle: float | np.ndarray) -> float | np.ndarray:
+    """Angle wrapped to [-pi, pi); elementwise for an array."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
@@ -50,3 +50,49 @@ def pixels_to_world(pixels: np.ndarray, resolution: float, origin: Sequence[floa
     return np.column_stack(
         (origin[0] + (pixels[:, 1] + 0.5) * resolution, origin[1] + (pixels[:, 0] + 0.5) * resolution)
     )
+
+
+def offsets_from_segments(points: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """For each of ``points`` (N, 2) and each segment ``starts[i]``-``ends[i]`` (M, 2), the vector from
+    the segment's nearest point to the point: shape (N, M, 2)."""
+    direction = ends - starts
+    length_sq = np.maximum((direction**2).sum(axis=1), 1e-12)
+    t = np.clip(((points[:, None, :] - starts[None]) * direction[None]).sum(axis=2) / length_sq[None], 0, 1)
+    return points[:, None, :] - (starts[None] + t[..., None] * direction[None])
+
+
+def polyline_length(points: np.ndarray) -> float:
+    """Length of a polyline given as an (N, 2) array."""
+    return float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()) if len(points) > 1 else 0.0
+
+
+def arc_lengths(points: np.ndarray) -> np.ndarray:
+    """Distance along a polyline (N, 2) from its first point to each point: shape (N,)."""
+    return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))])
+
+
+def segment_samples(points: np.ndarray, spacing: float) -> list[np.ndarray]:
+    """Each segment of a polyline as evenly spaced points, at most about ``spacing`` apart, both ends
+    included (at least 2 points a segment): one (K, 2) array per segment."""
+    return [
+        np.linspace(a, b, max(2, int(np.hypot(*(b - a)) / spacing) + 1))
+        for a, b in zip(points[:-1], points[1:])
+    ]
+
+
+def drop_repeated_points(points: np.ndarray) -> np.ndarray:
+    """A polyline without the points that repeat the one before."""
+    return points[np.concatenate(([True], np.any(np.diff(points, axis=0) != 0, axis=1)))]
+
+
+def drop_redundant_points(points: np.ndarray) -> np.ndarray:
+    """Remove repeated points and the middle points of straight runs from a polyline."""
+    points = drop_repeated_points(points)
+    if len(points) <= 2:
+        return points
+    incoming = points[1:-1] - points[:-2]
+    outgoing = points[2:] - points[1:-1]
+    cross = incoming[:, 0] * outgoing[:, 1] - incoming[:, 1] * outgoing[:, 0]
+    forward = (incoming * outgoing).sum(axis=1) > 0
+    keep = np.concatenate(([True], ~((cross == 0) & forward), [True]))
+    return points[keep]

@@ -28,9 +28,9 @@ from cabinbench.baselines.coverage_planning import (
     segment_footprint,
     segment_is_free,
     transpose_cell,
-    world_to_pixel,
 )
 from cabinbench.baselines.path_following import PathFollower
+from cabinbench.geometry import world_to_pixel
 
 RESOLUTION = 0.05
 TOOL_WIDTH = 0.35
