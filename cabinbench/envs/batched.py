@@ -135,7 +135,12 @@ class BatchedCoverageEnv:
     the first in this process, each other one in a worker process of its own (the env step is
     single-threaded Python, so this is how a batch uses several cores).
     Env ``i`` is seeded ``seed + i`` however the batch is split: results do not depend on it.
-    Call :meth:`close` (or use ``with``) to stop the workers."""
+    The workers are spawned and re-import the main script: create the env under ``if __name__ ==
+    "__main__":``. A worker that dies raises :class:`WorkerDied` in the next call that waits for it.
+    Call :meth:`close` (or use ``with``) to stop the workers.
+
+    ``observation_layout`` maps each part of an observation row to its slice, as the single env's
+    (:mod:`cabinbench.observation`)."""
 
     def __init__(
         self, layout="a320_cell", num_envs: int = 64, seed: int = 0, num_workers: int = 1, **env_kwargs
