@@ -76,14 +76,18 @@ class World:
         self.observation_size = observation_size(self.observation_layout)
         self.start_poses = start_poses(layout, n_robots)
         # read by the renderer, the metrics and the tests; fixed for the world's life
-        cells = self.cell_protocol
+        cell_protocol = self.cell_protocol
         self.segments, self.segment_tags, self.bound_slices = (
-            cells.segments,
-            cells.segment_tags,
-            cells.bound_slices,
+            cell_protocol.segments,
+            cell_protocol.segment_tags,
+            cell_protocol.bound_slices,
         )
-        self.circles, self.circle_tags, self.goal_cell = cells.circles, cells.circle_tags, cells.goal_cell
-        self.n_goals, self.n_exits = cells.n_goals, cells.n_exits
+        self.circles, self.circle_tags, self.goal_cell = (
+            cell_protocol.circles,
+            cell_protocol.circle_tags,
+            cell_protocol.goal_cell,
+        )
+        self.n_goals, self.n_exits = cell_protocol.n_goals, cell_protocol.n_exits
         self.floor_mask, self.coverable_mask = self.raster.floor_mask, self.raster.coverable_mask
         self.cell_of, self.coverable_pixels = self.raster.cell_of, self.raster.coverable_pixels
         self._no_noise = np.zeros(0)
@@ -133,7 +137,7 @@ class World:
         given, else into a new array."""
         if out is None:
             out = np.empty(self.observation_size, dtype=np.float32)
-        lidar, robot, cells = self.lidar, self.layout.robot, self.cell_protocol
+        lidar, robot, cell_protocol = self.lidar, self.layout.robot, self.cell_protocol
         # drawn before the cast, which draws nothing: the same numbers as drawing after it
         noise = self.rng.normal(0.0, lidar.noise, lidar.n_rays) if lidar.noise > 0 else self._no_noise
         write_observation(
@@ -145,12 +149,12 @@ class World:
             robot.max_turn_rate,
             self.ray_angles,
             lidar.max_range,
-            cells.segments,
-            cells.segment_tags,
-            cells.segment_on,
-            cells.circles,
-            cells.circle_tags,
-            cells.circle_on,
+            cell_protocol.segments,
+            cell_protocol.segment_tags,
+            cell_protocol.segment_on,
+            cell_protocol.circles,
+            cell_protocol.circle_tags,
+            cell_protocol.circle_on,
             noise,
             self.observation_layout["velocity"].start,
         )
@@ -168,7 +172,7 @@ class World:
                 self.raster.pass_count,
                 self.raster.coverable_mask,
                 self.raster.cell_of,
-                cells.cell_visible,
+                cell_protocol.cell_visible,
                 self.protocol == "open",
                 origin_x,
                 origin_y,
