@@ -2,7 +2,8 @@
 
 Importing the package registers the Gymnasium ids: one per built-in layout
 (``CabinBench/A320Cell-v0`` ...) and the generic ``CabinBench/Coverage-v0`` that takes
-``layout=`` (a name or a YAML path).
+``layout=`` (a name or a YAML path). A process that never imports cabinbench makes them as
+``gymnasium.make("cabinbench:CabinBench/A320Cell-v0")`` (Gymnasium imports the module first).
 """
 
 import gymnasium
