@@ -96,3 +96,8 @@ def drop_redundant_points(points: np.ndarray) -> np.ndarray:
     forward = (incoming * outgoing).sum(axis=1) > 0
     keep = np.concatenate(([True], ~((cross == 0) & forward), [True]))
     return points[keep]
+
+
+def nearest_point(points: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """The one of ``points`` (N, 2) nearest to ``point``."""
+    return points[np.argmin(np.hypot(*(points - point).T))]

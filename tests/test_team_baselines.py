@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import cabinbench
-from cabinbench.baselines.boustrophedon import _cell_region, _reachable, team_plans, team_split
+from cabinbench.baselines.boustrophedon import cell_region, reachable, team_plans, team_split
 from cabinbench.episodes import run_episode
 from cabinbench.layout import load_layout
 from cabinbench.run import main as run_main
@@ -35,9 +35,7 @@ def test_team_shares_partition_each_stage(layout_name, n_agents, protocol):
     split = team_split(layout, protocol, n_agents)
     assert sorted(split.ranks) == list(range(n_agents))  # every robot has its place in the convoy
     for stage in split.stages:
-        region = (
-            _reachable(layout) if stage.cell < 0 else _cell_region(layout, stage.cell) & _reachable(layout)
-        )
+        region = reachable(layout) if stage.cell < 0 else cell_region(layout, stage.cell) & reachable(layout)
         counts = np.sum(stage.shares, axis=0)
         assert counts.max() == 1 and np.array_equal(counts > 0, region)  # disjoint and complete
         goals = layout.goals if stage.cell < 0 else layout.cells[stage.cell].goals
