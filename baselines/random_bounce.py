@@ -3,9 +3,9 @@
 Drive straight at full speed until the bumper fires, then turn on the spot by a random angle
 (uniform in ±[``min_turn``, π]) and drive on. The bumper fires on a new contact event
 (``info["collisions"]`` or, in a team, ``info["robot_collisions"]`` grows) or when the robot
-stalls (its measured forward speed, the observation's odometry entry, stays under a third of the
-command: pressed against a wall). It uses no lidar. Seeded from the episode seed and the robot's
-index.
+stalls (its measured forward speed, the first entry of the observation's ``velocity`` part, stays
+under a third of the command: pressed against a wall). It uses no lidar. Seeded from the episode
+seed and the robot's index.
 """
 
 from __future__ import annotations
@@ -36,7 +36,8 @@ class RandomBounce(Baseline):
         robot = self.context.layout.robot
         collisions = info.get("collisions", 0) + info.get("robot_collisions", 0)  # walls or team mates
         bumped = collisions > self.collisions
-        stalled = self.driving_steps > 2 and observation[-2] < 1 / 3
+        forward_speed = observation[self.context.observation_layout["velocity"]][0]
+        stalled = self.driving_steps > 2 and forward_speed < 1 / 3
         self.collisions = collisions
         if self.turn_left == 0.0 and (bumped or stalled):
             magnitude = self.rng.uniform(self.min_turn, math.pi)

@@ -4,6 +4,8 @@ import math
 
 import numpy as np
 
+from cabinbench.geometry import wrap_angle
+
 
 def action_towards(pose, target, tolerance=0.01):
     """(action, arrived) for a unicycle at ``pose`` heading for ``target``."""
@@ -12,7 +14,7 @@ def action_towards(pose, target, tolerance=0.01):
     distance = math.hypot(dx, dy)
     if distance < tolerance:
         return np.zeros(2), True
-    error = (math.atan2(dy, dx) - heading + math.pi) % (2 * math.pi) - math.pi
+    error = wrap_angle(math.atan2(dy, dx) - heading)
     turn = float(np.clip(error / (2.0 * 0.1), -1, 1))  # reach the heading in about one step
     if abs(error) > 0.05:
         return np.array([0.0, turn]), False

@@ -14,7 +14,8 @@ def run_episode(baseline_name, layout, protocol, seed=0, **env_kwargs):
     env = CoverageEnv(layout, protocol=protocol, **env_kwargs)
     observation, info = env.reset(seed=seed)
     baseline = load_baseline(baseline_name)
-    baseline.reset(EpisodeContext(env.layout, protocol, seed), observation, info)
+    context = EpisodeContext(env.layout, protocol, seed, observation_layout=env.observation_layout)
+    baseline.reset(context, observation, info)
     while True:
         observation, _, terminated, truncated, info = env.step(baseline.act(observation, info))
         if terminated or truncated:
@@ -64,12 +65,11 @@ def test_demonstrations_are_recorded_in_the_documented_schema(tmp_path):
     assert summary["success"] == 1.0
     data = np.load(path, allow_pickle=False)
     assert set(data.files) == {"observations", "actions", "episode", "observation_config"}
-    assert data["observations"].shape == (summary["steps"], 386) and data["actions"].shape == (
-        summary["steps"],
-        2,
-    )
+    (observation_size,) = CoverageEnv("a320_cell").observation_space.shape
+    assert data["observations"].shape == (summary["steps"], observation_size)
+    assert data["actions"].shape == (summary["steps"], 2)
     assert set(np.unique(data["episode"])) == {0, 1}
-    observations, actions = load_demonstrations([str(path)], observation_dim=386, action_dim=2)
+    observations, actions = load_demonstrations([str(path)], observation_dim=observation_size, action_dim=2)
     assert observations.shape[0] == actions.shape[0] == summary["steps"]
     assert np.abs(actions.numpy()).max() <= 1.0
 
@@ -93,8 +93,8 @@ def test_noisy_demonstrations_vary_per_episode_and_record_the_planners_own_actio
     assert np.array_equal(clean_first, clean_second)  # ...where without noise they repeat one trajectory
     for name in noisy:
         np.testing.assert_array_equal(noisy[name], again[name])  # the noise is seeded
-    # The recorded actions are the planner's: they change from step to step by about 0.18 on average (0.11 without
-    # noise); the executed ones, with noise of std 0.3 on top, by about 0.36.
+    # The recorded actions are the planner's: they change from step to step by about 0.18 on
+    # average (0.11 without noise); the executed ones, with noise of std 0.3 on top, by about 0.36.
     jumps = np.abs(np.diff(noisy["actions"][noisy["episode"] == 0], axis=0)).mean()
     assert jumps < 2 * np.abs(np.diff(clean["actions"][clean["episode"] == 0], axis=0)).mean() + 0.02
 

@@ -59,12 +59,17 @@ def test_team_plans_leave_in_convoy_order():
 
 
 def test_random_bounce_runs_as_a_team_and_records_team_metrics():
+    alone, _ = run_episode("random_bounce", "a320_cell", 3, "sequential", 1, env_kwargs={"max_steps": 300})
     record, trajectory = run_episode(
         "random_bounce", "a320_cell", 3, "sequential", 2, env_kwargs={"max_steps": 300}
     )
-    assert record["n_agents"] == 2 and len(record["path_lengths"]) == 2
-    assert 0 < record["makespan"] <= record["time"] and record["load_balance"] >= 1.0
-    assert record["robot_collisions"] >= 0 and trajectory["positions"].shape == (record["steps"] + 1, 2, 2)
+    assert record["n_agents"] == 2 and trajectory["positions"].shape == (record["steps"] + 1, 2, 2)
+    assert 0 < record["makespan"] <= record["time"]
+    assert len(record["path_lengths"]) == 2 and min(record["path_lengths"]) > 5.0  # both robots drive
+    # Two walkers cover more of the cell than one in the same 300 steps (0.31 against 0.23); blind
+    # to each other, they bump into each other (9 times), and the team's record counts it.
+    assert record["coverage"] > alone["coverage"] + 0.05
+    assert record["robot_collisions"] > 0
 
 
 def test_too_many_robots_for_the_layout_are_refused():
