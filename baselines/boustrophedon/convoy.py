@@ -76,6 +76,7 @@ def team_plans(layout: Layout, protocol: str, n_agents: int) -> list[list[Leg]]:
 
 
 def _gated_plans(layout: Layout, protocol: str, n_agents: int) -> list[list[Leg]]:
+    """Every robot's legs, the delays of the departure gates set from all of them."""
     split = team_split(layout, protocol, n_agents)
     plans = [_robot_legs(layout, split, agent, n_agents) for agent in range(n_agents)]
     robot = layout.robot
@@ -96,6 +97,7 @@ def _gated_plans(layout: Layout, protocol: str, n_agents: int) -> list[list[Leg]
 
 
 def _robot_legs(layout: Layout, split: TeamSplit, agent: int, n_agents: int) -> list[Leg]:
+    """Robot ``agent``'s legs through every stage of ``split`` (gates still without their delay)."""
     rank = int(split.ranks[agent])
     position = start_poses(layout, n_agents)[agent, :2]
     drivable = reachable(layout)
