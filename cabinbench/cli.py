@@ -1,0 +1,108 @@
+"""What the command lines share: every user mistake is one line on stderr, exit status 2.
+
+A command builds its parser with :class:`ArgumentParser` (a bad argument: one line, no usage
+block), checks what it can in the argument types below (before any work starts), and wraps its
+``main`` in :func:`user_errors`, which prints a :data:`USER_ERRORS` exception as one line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+from .agents import BaselineError
+from .layout import LayoutError
+
+EXIT_USAGE = 2
+
+
+class UsageError(Exception):
+    """A user mistake a command finds after parsing; the message names the argument or file and the fix."""
+
+
+USER_ERRORS = (UsageError, LayoutError, BaselineError)
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """``argparse.ArgumentParser`` whose errors are one line."""
+
+    def error(self, message: str):
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def user_errors(main: Callable[[list[str] | None], int]) -> Callable[[list[str] | None], int]:
+    """``main`` that prints a user error as one line and returns :data:`EXIT_USAGE`."""
+
+    @functools.wraps(main)
+    def checked(argv: list[str] | None = None) -> int:
+        try:
+            return main(argv)
+        except USER_ERRORS as error:
+            print(f"error: {error}", file=sys.stderr)
+            return EXIT_USAGE
+
+    return checked
+
+
+def positive_int(text: str) -> int:
+    """argparse type: a whole number >= 1."""
+    return _whole_number(text, 1)
+
+
+def non_negative_int(text: str) -> int:
+    """argparse type: a whole number >= 0."""
+    return _whole_number(text, 0)
+
+
+def _whole_number(text: str, least: int) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = None
+    if value is None or value < least:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number >= {least}")
+    return value
+
+
+def json_object(text: str) -> dict:
+    """argparse type: a JSON object."""
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise argparse.ArgumentTypeError(
+            f"not valid JSON ({error}): write e.g. '{{\"min_turn\": 0.5}}'"
+        ) from None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a JSON object: write e.g. '{{\"min_turn\": 0.5}}'")
+    return value
+
+
+def output_folder(text: str) -> Path:
+    """argparse type: a folder that exists or can be created (no file in the way)."""
+    path = Path(text)
+    for part in (path, *path.parents):
+        if part.exists():
+            if not part.is_dir():
+                raise argparse.ArgumentTypeError(f"{part} is a file, not a folder: give a folder")
+            break
+    return path
+
+
+def output_file(*suffixes: str) -> Callable[[str], Path]:
+    """argparse type: a file to write, named with one of ``suffixes``, in a folder that exists."""
+
+    def check(text: str) -> Path:
+        path = Path(text)
+        if path.suffix.lower() not in suffixes:
+            raise argparse.ArgumentTypeError(f"{text!r}: give a file name ending in {' or '.join(suffixes)}")
+        if path.is_dir():
+            raise argparse.ArgumentTypeError(f"{text!r} is a folder: give a file name")
+        if not path.parent.is_dir():
+            raise argparse.ArgumentTypeError(f"{text!r}: no folder {path.parent}; create it first")
+        return path
+
+    return check
