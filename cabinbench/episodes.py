@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import os
 import signal
+import threading
+import time
 from collections.abc import Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
@@ -33,6 +35,7 @@ from .layout import Layout, load_layout
 from .render import draw_frame
 
 EXIT_INTERRUPTED = 130  # the shell's status for a process ended by Ctrl-C
+PARENT_POLL_SECONDS = 0.5  # how often a worker checks that the run that started it is still there
 
 
 @dataclass(frozen=True)
@@ -116,13 +119,13 @@ def run_episode(
 ) -> tuple[dict, dict]:
     """Play one episode; return ``(record, trajectory)``.
 
-    ``seed`` seeds the env reset and every baseline instance (``context.seed``). The env is made with
-    ``env_kwargs`` over the baseline's ``env_options`` (a learned policy's observation settings). ``record`` is the
-    env's ``episode_record``. ``trajectory`` holds full-resolution arrays: ``positions``
-    (steps + 1, K, 2) robot centres from ``info["pose"]``, ``coverage`` (steps + 1,) from
-    ``info["coverage"]``, ``pass_count`` (the final coverage raster, passes per pixel) and, when
-    ``frame_every`` is set, ``frames``: :func:`~cabinbench.render.draw_frame` pictures at the
-    start, every ``frame_every`` steps and at the end.
+    ``seed`` seeds the env reset and every baseline instance (``context.seed``). The env is made
+    with ``env_kwargs`` over the baseline's ``env_options`` (a learned policy's observation
+    settings). ``record`` is the env's ``episode_record``. ``trajectory`` holds full-resolution
+    arrays: ``positions`` (steps + 1, K, 2) robot centres from ``info["pose"]``, ``coverage``
+    (steps + 1,) from ``info["coverage"]``, ``pass_count`` (the final coverage raster, passes
+    per pixel) and, when ``frame_every`` is set, ``frames``: :func:`~cabinbench.render.draw_frame`
+    pictures at the start, every ``frame_every`` steps and at the end.
     """
     layout = layout if isinstance(layout, Layout) else load_layout(layout)
     baselines = [load_baseline(baseline_spec, **(config or {})) for _ in range(n_agents)]
@@ -186,10 +189,19 @@ def run_job(job: EpisodeJob) -> EpisodeResult:
     return EpisodeResult(job, record, trajectory)
 
 
-def _quit_on_interrupt() -> None:
+def _start_worker() -> None:
+    """Run in every worker process as it starts."""
     # Ctrl-C reaches the whole process group. A worker just stops (its episode is lost anyway);
     # the parent keeps what is finished. Without this every worker prints a traceback.
     signal.signal(signal.SIGINT, lambda *_: os._exit(EXIT_INTERRUPTED))
+    # A parent killed outright (kill -9) cannot stop its pool: the workers watch for it themselves.
+    threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+
+
+def _exit_with_parent(parent: int) -> None:
+    while os.getppid() == parent:  # an orphan is handed to another parent
+        time.sleep(PARENT_POLL_SECONDS)
+    os._exit(EXIT_INTERRUPTED)
 
 
 def run_jobs(jobs: Iterable[EpisodeJob], workers: int = 1) -> Iterator[EpisodeResult]:
@@ -198,13 +210,14 @@ def run_jobs(jobs: Iterable[EpisodeJob], workers: int = 1) -> Iterator[EpisodeRe
     ``workers <= 1``: in this process, in order. Otherwise a local process pool; results come in
     completion order (each carries its job). When the consumer stops early, pending jobs are
     cancelled. Ctrl-C in a terminal also stops the workers at once; a SIGINT sent to the parent
-    alone lets them finish the episodes in hand (not returned) before the process exits.
+    alone lets them finish the episodes in hand (not returned) before the process exits. Workers
+    end within ``PARENT_POLL_SECONDS`` of their parent, however it ends (even ``kill -9``).
     """
     if workers <= 1:
         for job in jobs:
             yield run_job(job)
         return
-    executor = ProcessPoolExecutor(max_workers=workers, initializer=_quit_on_interrupt)
+    executor = ProcessPoolExecutor(max_workers=workers, initializer=_start_worker)
     try:
         futures = [executor.submit(run_job, job) for job in jobs]
         for future in as_completed(futures):

@@ -2,24 +2,28 @@
 
     python -m cabinbench.run --baseline NAME|pkg.mod:Class --layout NAME|FILE.yaml
         [--episodes N] [--seed S] [--agents K] [--protocol sequential|open]
-        [--reward paper|coverage] [--max-steps N] [--config JSON] [--out DIR]
+        [--reward PRESET] [--max-steps N] [--config JSON] [--out DIR]
         [--render FILE.png|FILE.gif] [--json] [--workers N]
 
 Plays N independent episodes (episode i is seeded with S + i), appends one record per finished
 episode to ``DIR/<layout>__<baseline>__<protocol>__k<K>__seed<S>-<time>.jsonl`` (trajectories
 in the sibling ``.npz``; format in :mod:`cabinbench.records`) and prints a table of per-metric
 means with 95% bootstrap intervals, or with ``--json`` one JSON object with the same numbers and
-the paths written. ``--render`` draws the first episode: a PNG of its final state (trajectory
-over the map, covered area shaded: the seed's Fig. 5.11) or an animated GIF.
+the paths written. ``DIR`` defaults to the working folder ``runs/``: the committed
+``results/runs`` are written by ``results/make_results.sh`` alone. ``--render`` draws the first
+episode: a PNG of its final state (trajectory over the map, covered area shaded: the seed's
+Fig. 5.11) or an animated GIF. ``--reward`` takes a preset of :mod:`cabinbench.rewards`.
 
-Exit status: 0 done; 2 bad arguments (unknown baseline or layout: the valid names are printed;
-more robots than the layout's start cell holds);
-130 interrupted by Ctrl-C (finished episodes are kept, and the message says where).
+Exit status: 0 done; 2 a user mistake, in one line on stderr, before any episode is played
+(unknown baseline or layout: the valid names are given; settings the baseline does not take;
+more robots than the layout's start cell holds; a file or folder that cannot be written); 130
+interrupted by Ctrl-C (finished episodes are kept, and the message counts them on disk and says
+where).
 """
 
 from __future__ import annotations
 
-import argparse
+import inspect
 import json
 import math
 import sys
@@ -28,21 +32,32 @@ from pathlib import Path
 from PIL import Image
 from tqdm import tqdm
 
-from .agents import BaselineError, load_baseline
+from .agents import Baseline, baseline_class, load_baseline
+from .cli import (
+    ArgumentParser,
+    UsageError,
+    json_object,
+    non_negative_int,
+    output_file,
+    output_folder,
+    positive_int,
+    user_errors,
+)
 from .episodes import EXIT_INTERRUPTED, EpisodeJob, EpisodeResult, run_jobs
-from .layout import LayoutError, available_layouts, load_layout
+from .layout import load_layout
 from .metrics import METRICS, TEAM_METRICS
 from .records import RunWriter, run_header, run_path
+from .rewards import REWARD_PRESETS
 from .stats import Summary, summarize
 from .world import PROTOCOLS, start_poses
 
 GIF_FRAMES = 100  # frames spread over the step limit; the GIF stops early if the episode does
 GIF_FRAME_MS = 80
-EXIT_USAGE = 2
+DEFAULT_OUT = "runs"  # a working folder: results/runs is written by results/make_results.sh only
 
 
-def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(
+def parse_args(argv: list[str] | None):
+    parser = ArgumentParser(
         prog="python -m cabinbench.run",
         description="Evaluate a baseline on a layout; record every episode and summarise the metrics.",
     )
@@ -54,49 +69,73 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument(
         "--layout", required=True, help="a layout name (python -m cabinbench.layouts) or a YAML file"
     )
-    parser.add_argument("--episodes", type=int, default=5, help="episodes to play (default 5)")
-    parser.add_argument("--seed", type=int, default=0, help="base seed; episode i uses seed + i (default 0)")
-    parser.add_argument("--agents", type=int, default=1, help="robots in the team, K (default 1)")
+    parser.add_argument("--episodes", type=positive_int, default=5, help="episodes to play (default 5)")
+    parser.add_argument(
+        "--seed", type=non_negative_int, default=0, help="base seed; episode i uses seed + i (default 0)"
+    )
+    parser.add_argument("--agents", type=positive_int, default=1, help="robots in the team, K (default 1)")
     parser.add_argument(
         "--protocol", choices=PROTOCOLS, default="sequential", help="cell by cell, or the whole layout open"
     )
     parser.add_argument(
         "--reward",
-        choices=("paper", "coverage"),
+        choices=list(REWARD_PRESETS),
         default="paper",
         help="reward preset (learned baselines see it)",
     )
     parser.add_argument(
-        "--max-steps", type=int, default=None, help="step limit per episode (default: the layout's)"
+        "--max-steps", type=positive_int, default=None, help="step limit per episode (default: the layout's)"
     )
     parser.add_argument(
-        "--config", type=json.loads, default={}, metavar="JSON", help="baseline settings as a JSON object"
+        "--config", type=json_object, default={}, metavar="JSON", help="baseline settings as a JSON object"
     )
-    parser.add_argument("--out", default="results/runs", help="folder for the records (default results/runs)")
     parser.add_argument(
-        "--render", metavar="FILE", help="draw the first episode to FILE.png or animate it to FILE.gif"
+        "--out",
+        type=output_folder,
+        default=DEFAULT_OUT,
+        help=f"folder for the records, created if need be (default {DEFAULT_OUT}/, a working folder)",
+    )
+    parser.add_argument(
+        "--render",
+        metavar="FILE",
+        type=output_file(".png", ".gif"),
+        help="draw the first episode to FILE.png or animate it to FILE.gif",
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     parser.add_argument(
-        "--workers", type=int, default=1, help="episodes played in parallel by a local process pool"
+        "--workers", type=positive_int, default=1, help="episodes played in parallel by a local process pool"
     )
-    args = parser.parse_args(argv)
-    if (
-        args.episodes < 1
-        or args.agents < 1
-        or args.workers < 1
-        or (args.max_steps is not None and args.max_steps < 1)
-    ):
-        parser.error("--episodes, --agents, --workers and --max-steps must be positive")
-    if not isinstance(args.config, dict):
-        parser.error("--config must be a JSON object, e.g. '{\"min_turn\": 0.5}'")
-    if args.render and Path(args.render).suffix.lower() not in (".png", ".gif"):
-        parser.error("--render takes a .png or a .gif file name")
-    return args
+    return parser.parse_args(argv)
 
 
-def collect(results, writer: RunWriter, total: int) -> tuple[list[EpisodeResult], bool]:
-    """Write each finished episode as it comes; return them and whether Ctrl-C cut the run short."""
+def baseline_settings(cls: type) -> set[str] | None:
+    """The settings (constructor keywords) a baseline class takes, or None when it takes any. A
+    constructor's ``**config`` passes the rest on to the next class's; :class:`Baseline`'s only
+    records the settings of its subclasses and takes none of its own."""
+    names: set[str] = set()
+    for klass in cls.__mro__:
+        if "__init__" not in vars(klass):
+            continue
+        if klass in (Baseline, object):
+            return names
+        parameters = list(inspect.signature(klass.__init__).parameters.values())[1:]  # after self
+        names |= {p.name for p in parameters if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+        if not any(p.kind is p.VAR_KEYWORD for p in parameters):
+            return names
+    return None
+
+
+def check_settings(spec: str, config: dict) -> None:
+    """Refuse settings the baseline does not take (one that forwards them would silently ignore them)."""
+    settings = baseline_settings(baseline_class(spec))
+    unknown = sorted(set(config) - settings) if settings is not None else []
+    if unknown:
+        takes = ", ".join(sorted(settings)) if settings else "no settings"
+        raise UsageError(f"--config: baseline {spec!r} does not take {', '.join(unknown)}; it takes {takes}")
+
+
+def collect(results, writer: RunWriter, total: int) -> list[EpisodeResult]:
+    """Write each finished episode as it comes; return them."""
     finished = []
     try:
         with tqdm(total=total, unit="episode", file=sys.stderr, dynamic_ncols=True) as progress:
@@ -105,12 +144,10 @@ def collect(results, writer: RunWriter, total: int) -> tuple[list[EpisodeResult]
                 finished.append(result)
                 progress.set_postfix(coverage=f"{result.record['coverage']:.3f}")
                 progress.update()
-    except KeyboardInterrupt:
-        return finished, True
     finally:
         if hasattr(results, "close"):
             results.close()  # stops the worker pool now rather than at garbage collection
-    return finished, False
+    return finished
 
 
 def summary_metrics(record: dict) -> list[str]:
@@ -149,25 +186,21 @@ def save_render(frames: list, path: str) -> None:
     images[0].save(path, save_all=True, append_images=images[1:], duration=durations, loop=0)
 
 
+@user_errors
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    try:
-        layout = load_layout(args.layout)
-    except LayoutError as error:
-        print(f"error: {error}\nvalid layouts: {', '.join(available_layouts())}", file=sys.stderr)
-        return EXIT_USAGE
+    layout = load_layout(args.layout)
     try:
         start_poses(
             layout, args.agents
         )  # a team too large for the start cell: refuse before writing anything
     except ValueError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return EXIT_USAGE
+        raise UsageError(f"--agents: {error}") from None
+    check_settings(args.baseline, args.config)
     try:
         baseline = load_baseline(args.baseline, **args.config)
-    except (BaselineError, ValueError) as error:  # unknown name, settings or a file the class cannot use
-        print(f"error: {error}", file=sys.stderr)
-        return EXIT_USAGE
+    except ValueError as error:  # a file the class cannot use (a BaselineError is a user error already)
+        raise UsageError(f"--baseline {args.baseline}: {error}") from None
 
     max_steps = args.max_steps or layout.max_steps
     env_config = {**baseline.env_options, "reward": args.reward, "max_steps": max_steps}
@@ -180,12 +213,9 @@ def main(argv: list[str] | None = None) -> int:
         args.seed,
         env_config,
     )
-    writer = RunWriter(run_path(args.out, header), header, layout)
     frame_every = None  # frames of the first episode: a PNG needs only the last, a GIF about GIF_FRAMES
     if args.render:
-        frame_every = (
-            max(1, max_steps // GIF_FRAMES) if Path(args.render).suffix.lower() == ".gif" else max_steps
-        )
+        frame_every = max(1, max_steps // GIF_FRAMES) if args.render.suffix.lower() == ".gif" else max_steps
     jobs = [
         EpisodeJob(
             args.baseline,
@@ -200,48 +230,53 @@ def main(argv: list[str] | None = None) -> int:
         )
         for episode in range(args.episodes)
     ]
-
-    finished, interrupted = collect(run_jobs(jobs, args.workers), writer, len(jobs))
-    if interrupted:
-        if not finished:
-            writer.path.unlink(missing_ok=True)  # the name claimed for the run, still empty
-        where = (
-            f"{writer.path} (trajectories: {writer.trajectory_path})" if finished else "nothing was written"
-        )
-        print(f"interrupted: {len(finished)} finished episode(s) kept; {where}", file=sys.stderr)
+    writer = RunWriter(run_path(args.out, header), header, layout)
+    try:
+        finished = collect(run_jobs(jobs, args.workers), writer, len(jobs))
+        if args.render:
+            first = next(result for result in finished if result.job.episode == 0)
+            save_render(first.trajectory["frames"], args.render)
+        report(args, layout.name, finished, writer)
+    except KeyboardInterrupt:
+        kept = writer.episodes_written()
+        where = f"{writer.path} (trajectories: {writer.trajectory_path})" if kept else "nothing was written"
+        print(f"interrupted: {kept} finished episode(s) kept; {where}", file=sys.stderr)
         return EXIT_INTERRUPTED
-    if args.render:
-        first = next(result for result in finished if result.job.episode == 0)
-        save_render(first.trajectory["frames"], args.render)
+    finally:
+        writer.remove_if_empty()  # a run stopped before its first episode leaves no file
+    return 0
 
+
+def report(args, layout_name: str, finished: list[EpisodeResult], writer: RunWriter) -> None:
+    """The summary on stdout: a table, or with ``--json`` one JSON object."""
     records = [result.record for result in sorted(finished, key=lambda result: result.job.episode)]
     summaries = summarize_run(records)
+    render = str(args.render) if args.render else None
     if args.json:
         print(
             json.dumps(
                 {
                     "baseline": args.baseline,
-                    "layout": layout.name,
+                    "layout": layout_name,
                     "protocol": args.protocol,
                     "n_agents": args.agents,
                     "episodes": len(records),
                     "records": str(writer.path),
                     "trajectories": str(writer.trajectory_path),
-                    "render": args.render,
+                    "render": render,
                     "metrics": {name: summary.as_dict() for name, summary in summaries.items()},
                 }
             )
         )
-    else:
-        title = (
-            f"{args.baseline} on {layout.name} ({args.protocol}, K={args.agents}): {len(records)} episodes, "
-            f"seeds {args.seed}..{args.seed + len(records) - 1}"
-        )
-        print(format_table(summaries, title))
-        print(f"\nrecords: {writer.path}\ntrajectories: {writer.trajectory_path}")
-        if args.render:
-            print(f"render: {args.render}")
-    return 0
+        return
+    title = (
+        f"{args.baseline} on {layout_name} ({args.protocol}, K={args.agents}): {len(records)} episodes, "
+        f"seeds {args.seed}..{args.seed + len(records) - 1}"
+    )
+    print(format_table(summaries, title))
+    print(f"\nrecords: {writer.path}\ntrajectories: {writer.trajectory_path}")
+    if render:
+        print(f"render: {render}")
 
 
 if __name__ == "__main__":

@@ -5,8 +5,10 @@ import io
 import json
 import math
 import shutil
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -234,7 +236,8 @@ def test_uncovered_table_leaves_out_runs_whose_layout_changed(short_run, tmp_pat
 
 
 def test_leaderboard_without_records_fails(tmp_path, capsys):
-    assert leaderboard.main(["--runs", str(tmp_path / "empty"), "--out", str(tmp_path)]) == 1
+    (tmp_path / "empty").mkdir()
+    assert leaderboard.main(["--runs", str(tmp_path / "empty"), "--out", str(tmp_path)]) == 2
     assert "no records" in capsys.readouterr().err
 
 
@@ -254,9 +257,9 @@ def test_statistics_edge_cases():
 
 
 def test_ablation_table_scores_each_training_run_and_their_spread(tmp_path):
-    """The shipped ppo policy's episodes (in --runs) and another policy file's (in --ablation-runs) are scored per
-    policy; the table gives the mean over policies with the lowest and highest; the leaderboard keeps only the
-    shipped policy's episodes."""
+    """The shipped ppo policy's episodes (in --runs) and another policy file's (in --ablation-runs)
+    are scored per policy; the table gives the mean over policies with the lowest and highest; the
+    leaderboard keeps only the shipped policy's episodes."""
     from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR
 
     other = tmp_path / "training" / "ppo" / "seed7" / "policy.pt"
@@ -289,3 +292,64 @@ def test_ablation_table_scores_each_training_run_and_their_spread(tmp_path):
         in (tmp_path / "out" / "leaderboard.md").read_text()
     )
     assert Image.open(tmp_path / "out" / "figures" / "ablation_coverage.png").size[0] > 500
+
+
+def children(pid: int) -> list[int]:
+    """The live child processes of ``pid`` (Linux /proc)."""
+    found = []
+    for task in Path(f"/proc/{pid}/task").glob("*/children"):
+        found += [int(child) for child in task.read_text().split()]
+    return found
+
+
+def alive(pid: int) -> bool:
+    """True while ``pid`` runs (a zombie, dead but not yet reaped by its new parent, is not alive)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+def wait_until(condition, seconds: float) -> bool:
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.1)
+    return condition()
+
+
+LONG = ["--baseline", "random_bounce", "--layout", "a320_cell", "--max-steps", "1500", "--episodes", "50"]
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="reads the process tree from Linux /proc")
+def test_workers_die_with_a_killed_run(tmp_path):
+    """kill -9 leaves the parent no chance to stop its pool: the workers notice and end themselves."""
+    command = [sys.executable, "-m", "cabinbench.run", *LONG, "--workers", "2", "--out", str(tmp_path)]
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        assert wait_until(lambda: len(children(process.pid)) >= 2, 60), "the run did not start its workers"
+        workers = children(process.pid)
+        process.kill()
+        process.wait()
+        assert wait_until(lambda: not any(alive(worker) for worker in workers), 5), workers
+    finally:
+        process.kill()
+
+
+def test_ctrl_c_keeps_what_is_on_disk_and_says_so(tmp_path):
+    """SIGINT once episodes are on disk: exit 130, one message counting the records in the file, no
+    traceback, no temporary file."""
+    command = [sys.executable, "-m", "cabinbench.run", *LONG, "--out", str(tmp_path)]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+    def records() -> list[str]:
+        return [line for path in tmp_path.glob("*.jsonl") for line in path.read_text().splitlines()]
+
+    assert wait_until(lambda: len(records()) >= 2, 120), "no episode finished"
+    process.send_signal(signal.SIGINT)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 130 and "Traceback" not in stderr
+    [message] = [line for line in stderr.splitlines() if line.startswith("interrupted")]
+    assert f"interrupted: {len(records())} finished episode(s) kept" in message
+    assert not list(tmp_path.glob("*.tmp"))
