@@ -5,8 +5,9 @@ Measures:
 - single-env steps/s of ``CabinBench/Coverage-v0`` (64 rays, random actions, resets included) on
   ``a320_cell`` and ``full_cabin``, and on ``a320_cell`` with the 16 x 16 coverage patch the shipped
   policies observe, pinned to one core;
-- the batched training env's agent-steps/s (needs torch) (env stepping alone, random actions; best of 3), on one core and
-  with ``num_workers`` = the machine's cores (this process steps one shard, a worker each other);
+- the batched training env's agent-steps/s (needs torch; env stepping alone, random actions; best
+  of 3), on one core and with ``num_workers`` = the machine's cores (this process steps one shard,
+  a worker each other);
 - the boustrophedon planner's time to plan ``full_cabin``;
 - peers stepped in the same run, so ratios survive machine drift: PettingZoo's Pistonball
   (pymunk physics, like ours; needs pygame) and Gymnasium's CartPole (pure-Python physics, a
@@ -17,7 +18,6 @@ Speed is stated by this command, never asserted by a test.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import time
@@ -27,6 +27,7 @@ import numpy as np
 
 import cabinbench  # noqa: F401  (registers the envs)
 from cabinbench.agents import EpisodeContext, load_baseline
+from cabinbench.cli import ArgumentParser, positive_int, user_errors
 from cabinbench.layout import load_layout
 
 
@@ -77,7 +78,8 @@ def bench_batched(layout: str, num_envs: int, steps: int, num_workers: int, repe
 
 
 def bench_planner(layout: str, baseline: str = "boustrophedon") -> float:
-    """Seconds a planning baseline takes to plan a layout (its ``reset``, best of 3), found by name in the registry."""
+    """Seconds a planning baseline (found by name in the registry) takes to plan a layout: its
+    ``reset``, best of 3."""
     loaded = load_layout(layout)
     planner = load_baseline(baseline)
     context = EpisodeContext(loaded, "sequential", seed=0)
@@ -110,12 +112,13 @@ def bench_pistonball(steps: int) -> float | None:
     return agent_steps / (time.perf_counter() - started)
 
 
+@user_errors
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="python -m cabinbench.bench", description="Env throughput, beside peer envs."
     )
-    parser.add_argument("--steps", type=int, default=20000, help="single-env steps per measurement")
-    parser.add_argument("--num-envs", type=int, default=256, help="envs in the batched env")
+    parser.add_argument("--steps", type=positive_int, default=20000, help="single-env steps per measurement")
+    parser.add_argument("--num-envs", type=positive_int, default=256, help="envs in the batched env")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     args = parser.parse_args(argv)
     cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else [0]

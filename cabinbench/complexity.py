@@ -11,13 +11,13 @@ and 11.1065 (Matrix B).
 
 from __future__ import annotations
 
-import argparse
 import json
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
 
+from .cli import ArgumentParser, output_file, user_errors
 from .layout import Layout, load_layout
 
 
@@ -74,13 +74,14 @@ def save_complexity_png(result: Complexity, path: str, title: str = "") -> None:
     plt.close(figure)
 
 
+@user_errors
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m cabinbench.complexity", description=__doc__.split("\n\n")[0]
-    )
+    parser = ArgumentParser(prog="python -m cabinbench.complexity", description=__doc__.split("\n\n")[0])
     parser.add_argument("layout", help="layout name or YAML path")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("--png", metavar="FILE", help="draw the complexity map to FILE")
+    parser.add_argument(
+        "--png", metavar="FILE", type=output_file(".png"), help="draw the complexity map to FILE"
+    )
     args = parser.parse_args(argv)
     layout = load_layout(args.layout)
     result = layout_complexity(layout)
@@ -92,13 +93,14 @@ def main(argv: list[str] | None = None) -> int:
     }
     if args.png:
         save_complexity_png(result, args.png, layout.name)
-        summary["png"] = args.png
+        summary["png"] = str(args.png)
     if args.json:
         print(json.dumps(summary))
     else:
         rows, cols = result.cell_map.shape
         print(
-            f"{layout.name}: {rows}x{cols} robot cells, total {result.total:.4f}, normalized {result.normalized:.4f}"
+            f"{layout.name}: {rows}x{cols} robot cells, "
+            f"total {result.total:.4f}, normalized {result.normalized:.4f}"
         )
     return 0
 

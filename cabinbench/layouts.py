@@ -2,16 +2,30 @@
 
 Built-in layouts come from the package's ``layouts/`` folder; folders named in the
 ``CABINBENCH_LAYOUT_PATH`` environment variable (``:``-separated) add or shadow layouts by file
-name.
+name. A file that does not load, or a folder in the variable that does not exist, is reported in
+one line on stderr; every other layout is still listed, and the exit status is then 2.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
+import sys
 
+from .cli import EXIT_USAGE, ArgumentParser, user_errors
 from .complexity import layout_complexity
-from .layout import available_layouts, load_layout
+from .layout import LAYOUT_PATH_VARIABLE, LayoutError, available_layouts, layout_search_path, load_layout
+
+COLUMNS = (  # title, width, the row's field and its number format
+    ("name", 20, "name", ""),
+    ("kind", 8, "kind", ""),
+    ("size (m)", 12, "size", ""),
+    ("cells", 5, "cells", ""),
+    ("goals", 5, "goals", ""),
+    ("free m²", 8, "free_area_m2", ".2f"),
+    ("coverable m²", 12, "coverable_area_m2", ".2f"),
+    ("complexity", 10, "complexity_total", ".4f"),
+    ("normalized", 10, "complexity_normalized", ".4f"),
+)
 
 
 def layout_summary(name: str) -> dict:
@@ -33,26 +47,40 @@ def layout_summary(name: str) -> dict:
     }
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m cabinbench.layouts", description="List the available layouts."
+def table(rows: list[dict]) -> str:
+    def cell(row: dict, width: int, field: str, number_format: str) -> str:
+        if field == "size":
+            return f"{row['size_m'][0]:.2f}x{row['size_m'][1]:.2f}".rjust(width)
+        return f"{row[field]:{'<' if field in ('name', 'kind') else '>'}{width}{number_format}}"
+
+    header = " ".join(
+        f"{title:{'<' if i < 2 else '>'}{width}}" for i, (title, width, *_) in enumerate(COLUMNS)
     )
+    lines = [header, "-" * len(header)]
+    lines += [" ".join(cell(row, width, field, fmt) for _, width, field, fmt in COLUMNS) for row in rows]
+    return "\n".join(lines)
+
+
+@user_errors
+def main(argv: list[str] | None = None) -> int:
+    parser = ArgumentParser(prog="python -m cabinbench.layouts", description="List the available layouts.")
     parser.add_argument("--json", action="store_true", help="print a JSON list")
     args = parser.parse_args(argv)
-    rows = [layout_summary(name) for name in available_layouts()]
-    if args.json:
-        print(json.dumps(rows, indent=1))
-        return 0
-    header = f"{'name':<20} {'kind':<6} {'size (m)':>12} {'cells':>5} {'goals':>5} {'free m²':>8} {'coverable m²':>12} {'complexity':>10} {'normalized':>10}"
-    print(header)
-    print("-" * len(header))
-    for row in rows:
-        size = f"{row['size_m'][0]:.2f}x{row['size_m'][1]:.2f}"
-        print(
-            f"{row['name']:<20} {row['kind']:<6} {size:>12} {row['cells']:>5} {row['goals']:>5} {row['free_area_m2']:>8.2f} "
-            f"{row['coverable_area_m2']:>12.2f} {row['complexity_total']:>10.4f} {row['complexity_normalized']:>10.4f}"
-        )
-    return 0
+    problems = [
+        f"error: {LAYOUT_PATH_VARIABLE} names {folder}, which is not a folder: fix or remove that entry"
+        for folder in layout_search_path()
+        if not folder.is_dir()
+    ]
+    rows = []
+    for path in available_layouts().values():
+        try:
+            rows.append(layout_summary(str(path)))
+        except LayoutError as error:
+            problems.append(f"error: {error}")
+    print(json.dumps(rows, indent=1) if args.json else table(rows))
+    for problem in problems:
+        print(problem, file=sys.stderr)
+    return EXIT_USAGE if problems else 0
 
 
 if __name__ == "__main__":

@@ -1,33 +1,35 @@
 """Build the benchmark paper: ``python -m cabinbench.paper [--results results] [--out paper/paper.md]``.
 
 Fills ``paper/template.md``'s placeholders from generated material only: ``{{layouts_table}}``
-from the layout files (size, cells, areas, complexity), ``{{leaderboard_table}}`` from
-``results/leaderboard.md`` and ``{{ablation_table}}`` from ``results/ablation.md`` (both generated from
-the run records by ``python -m cabinbench.leaderboard``), and ``{{figures}}`` from ``results/figures/``. Nothing in the
-paper's tables is typed by hand; the same inputs give a byte-identical paper.
+from the built-in layout files (size, cells, areas, complexity; never a user's
+``CABINBENCH_LAYOUT_PATH``), ``{{leaderboard_table}}``, ``{{ablation_table}}`` and
+``{{uncovered_table}}`` from ``results/leaderboard.md``, ``ablation.md`` and ``uncovered.md``
+(generated from the run records by ``python -m cabinbench.leaderboard``), and ``{{figures}}``
+from ``results/figures/``. Nothing in the paper's tables is typed by hand; the same inputs give a
+byte-identical paper. A missing input is a user error: one line, exit status 2.
 """
 
 from __future__ import annotations
 
-import argparse
 import os
-import sys
 from pathlib import Path
 
-from .layout import available_layouts
+from .cli import ArgumentParser, UsageError, output_file, user_errors
+from .layout import builtin_layout_dir
 from .layouts import layout_summary
 
 
 def layouts_table() -> str:
     lines = [
-        "| layout | kind | size (m) | cells | goals | free m² | coverable m² | complexity (total) | complexity (normalized) |",
+        "| layout | kind | size (m) | cells | goals | free m² | coverable m² | complexity (total) "
+        "| complexity (normalized) |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
-    for name in available_layouts():
-        row = layout_summary(name)
+    for path in sorted(builtin_layout_dir().glob("*.yaml")):
+        row = layout_summary(str(path))
         lines.append(
-            f"| `{row['name']}` | {row['kind']} | {row['size_m'][0]:.2f} × {row['size_m'][1]:.2f} | {row['cells']} | "
-            f"{row['goals']} | {row['free_area_m2']:.2f} | {row['coverable_area_m2']:.2f} | "
+            f"| `{row['name']}` | {row['kind']} | {row['size_m'][0]:.2f} × {row['size_m'][1]:.2f} | "
+            f"{row['cells']} | {row['goals']} | {row['free_area_m2']:.2f} | {row['coverable_area_m2']:.2f} | "
             f"{row['complexity_total']:.4f} | {row['complexity_normalized']:.4f} |"
         )
     return "\n".join(lines)
@@ -63,24 +65,25 @@ def build(template: Path, results: Path, out: Path) -> str:
     return text
 
 
+@user_errors
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="python -m cabinbench.paper", description="Build paper/paper.md from the template and results/."
     )
     parser.add_argument("--template", default="paper/template.md")
     parser.add_argument("--results", default="results")
-    parser.add_argument("--out", default="paper/paper.md")
+    parser.add_argument("--out", type=output_file(".md"), default="paper/paper.md")
     args = parser.parse_args(argv)
-    results = Path(args.results)
+    results, template = Path(args.results), Path(args.template)
     if not (results / "leaderboard.md").is_file():
-        print(
-            f"{results / 'leaderboard.md'} is missing: run `python -m cabinbench.leaderboard` first",
-            file=sys.stderr,
+        raise UsageError(
+            f"--results: {results / 'leaderboard.md'} is missing; "
+            "run `python -m cabinbench.leaderboard` first"
         )
-        return 1
-    out = Path(args.out)
-    out.write_text(build(Path(args.template), results, out), encoding="utf-8")
-    print(f"wrote {out}")
+    if not template.is_file():
+        raise UsageError(f"--template: no file {template}; give the paper's template (paper/template.md)")
+    args.out.write_text(build(template, results, args.out), encoding="utf-8")
+    print(f"wrote {args.out}")
     return 0
 
 
