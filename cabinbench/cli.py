@@ -2,7 +2,8 @@
 
 A command builds its parser with :class:`ArgumentParser` (a bad argument: one line, no usage
 block), checks what it can in the argument types below (before any work starts), and wraps its
-``main`` in :func:`user_errors`, which prints a :data:`USER_ERRORS` exception as one line.
+``main`` in :func:`user_errors`, which prints a :data:`USER_ERRORS` exception as one line (and
+Ctrl-C as ``interrupted``, exit status 130, where the command has nothing better to say).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from .agents import BaselineError
 from .layout import LayoutError
 
 EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130  # the shell's status for a process ended by Ctrl-C
 
 
 class UsageError(Exception):
@@ -35,7 +37,8 @@ class ArgumentParser(argparse.ArgumentParser):
 
 
 def user_errors(main: Callable[[list[str] | None], int]) -> Callable[[list[str] | None], int]:
-    """``main`` that prints a user error as one line and returns :data:`EXIT_USAGE`."""
+    """``main`` that prints a user error as one line and returns :data:`EXIT_USAGE`, and a Ctrl-C
+    that ``main`` does not handle itself as ``interrupted`` (:data:`EXIT_INTERRUPTED`)."""
 
     @functools.wraps(main)
     def checked(argv: list[str] | None = None) -> int:
@@ -44,6 +47,9 @@ def user_errors(main: Callable[[list[str] | None], int]) -> Callable[[list[str] 
         except USER_ERRORS as error:
             print(f"error: {error}", file=sys.stderr)
             return EXIT_USAGE
+        except KeyboardInterrupt:
+            print("interrupted", file=sys.stderr)
+            return EXIT_INTERRUPTED
 
     return checked
 

@@ -30,11 +30,11 @@ import numpy as np
 
 from . import parallel_env
 from .agents import EpisodeContext, load_baseline
+from .cli import EXIT_INTERRUPTED
 from .envs.coverage_env import CoverageEnv
 from .layout import Layout, load_layout
 from .render import draw_frame
 
-EXIT_INTERRUPTED = 130  # the shell's status for a process ended by Ctrl-C
 PARENT_POLL_SECONDS = 0.5  # how often a worker checks that the run that started it is still there
 
 

@@ -34,6 +34,7 @@ from tqdm import tqdm
 
 from .agents import Baseline, baseline_class, load_baseline
 from .cli import (
+    EXIT_INTERRUPTED,
     ArgumentParser,
     UsageError,
     json_object,
@@ -43,7 +44,7 @@ from .cli import (
     positive_int,
     user_errors,
 )
-from .episodes import EXIT_INTERRUPTED, EpisodeJob, EpisodeResult, run_jobs
+from .episodes import EpisodeJob, EpisodeResult, run_jobs
 from .layout import load_layout
 from .metrics import METRICS, TEAM_METRICS
 from .records import RunWriter, run_header, run_path
