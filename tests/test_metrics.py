@@ -95,8 +95,9 @@ def test_uncovered_floor_is_split_by_distance_from_the_walls():
     assert uncovered_by_clearance(np.zeros_like(covered_inner_two), coverable, clearance) == pytest.approx(
         [0.2] * 5
     )
-    # a real episode: the robot drives down the middle of a corridor 0.65 m wide, its disc 15 cm from either side
-    # wall, so it leaves uncovered only floor within 15 cm of them; the bands sum to 1 - coverage
+    # a real episode: the robot drives down the middle of a corridor 0.65 m wide, its disc 15 cm
+    # from either side wall, so it leaves uncovered only floor within 15 cm of them; the bands sum
+    # to 1 - coverage
     layout = room(1.2, 0.65, (0.25, 0.325))
     env = CoverageEnv(layout, protocol="open")
     env.reset(seed=0)
