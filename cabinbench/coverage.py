@@ -6,7 +6,7 @@ pose). The metrics module turns these counts into coverage and overlap; :func:`s
 only keeps them up to date and reports what is new.
 
 :class:`CoveragePatch` is the optional part of the observation that shows the robot which floor
-near it is still uncleaned (DESIGN: "an egocentric local patch of the coverage raster"). A real
+near it is still uncleaned (an egocentric local patch of the coverage raster). A real
 cleaning robot keeps such a map from its odometry; without it a memoryless policy cannot tell a
 cleaned aisle from a dirty one, and so cannot know when a cell is done.
 """

@@ -1,4 +1,4 @@
-"""Coverage metrics: the one place where every metric of DESIGN.md is defined.
+"""Coverage metrics: the one place where every metric of an episode record is defined.
 
 An :class:`EpisodeTracker` follows a :class:`~cabinbench.world.World` step by step and produces
 one record per episode. Definitions (areas are counted on the 0.05 m raster):
@@ -10,7 +10,7 @@ one record per episode. Definitions (areas are counted on the 0.05 m raster):
 - ``coverage_free``: covered floor / all floor (the seed's definition, Fig. 5.11);
 - ``path_length``: metres travelled by the robot centre (team: all robots together);
 - ``path_efficiency``: L_LB / path_length with L_LB = (area covered after the start pose) / tool
-  width, the physical lower bound for covering that area; 1 for a straight drive. DESIGN.md
+  width, the physical lower bound for covering that area; 1 for a straight drive. The design card
   writes L_LB with the whole coverable area: the two agree on complete coverage, and ours stays
   in [0, 1] for an episode that stops early;
 - ``time``: simulated seconds; ``steps``: env steps;
@@ -153,7 +153,7 @@ class EpisodeTracker:
         }
 
     def record(self) -> dict:
-        """The episode record: every metric of DESIGN.md (and the team metrics for K > 1)."""
+        """The episode record: every metric of :data:`METRICS` (and the team metrics for K > 1)."""
         world = self.world
         floor_pixels = int(world.floor_mask.sum())
         record = {

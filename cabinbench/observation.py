@@ -16,7 +16,7 @@ envs expose it as ``env.unwrapped.observation_layout`` and baselines get it as
 their own. :func:`write_observation` writes the lidar and velocity parts (the world writes the
 coverage patch with :func:`cabinbench.coverage.write_coverage_patch`).
 
-DESIGN.md names the lidar's parts ``lidar_distance`` and ``lidar_tags``; they are not slices here
+The project's design names the lidar's parts ``lidar_distance`` and ``lidar_tags``; they are not slices here
 because the observation interleaves them per ray (the shipped policies were trained on that
 order): read them with :func:`lidar_channel` / :func:`lidar_rays`.
 """

@@ -84,11 +84,15 @@ def test_exit_moves_the_robot_on_and_the_bound_closes_behind():
 
 
 def test_open_protocol_succeeds_on_coverage():
-    env = CoverageEnv("paper_matrix_a", protocol="open")
-    env.reset(seed=0)
-    assert env.layout.success_coverage == 0.98
-    assert not env.world.success
-    assert np.isclose(env.world.coverage, env.world.covered_coverable_pixels / env.world.coverable_pixels)
+    """In the open protocol an episode ends as a success once the layout's success coverage is reached,
+    before the step limit, and not before it."""
+    from cabinbench.episodes import run_episode
+
+    layout = CoverageEnv("paper_matrix_a", protocol="open").layout
+    record, trajectory = run_episode("boustrophedon", layout, 0, protocol="open")
+    assert record["success"] and record["coverage"] >= layout.success_coverage
+    assert record["steps"] < layout.max_steps
+    assert trajectory["coverage"][-2] < layout.success_coverage  # the step before the last had not reached it
 
 
 def test_every_bound_the_team_passed_closes_once_all_robots_are_through():

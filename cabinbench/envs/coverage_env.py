@@ -35,7 +35,7 @@ each part to its slice (:mod:`cabinbench.observation`; read observations through
 The lidar part is ray-major, its 6 channels per ray (distance, then the tags ``obstacle, bound,
 goal, exit, robot``) named by
 :data:`cabinbench.observation.LIDAR_CHANNELS` (read one with
-:func:`~cabinbench.observation.lidar_channel`); DESIGN.md's ``lidar_distance`` and ``lidar_tags``
+:func:`~cabinbench.observation.lidar_channel`); the design's ``lidar_distance`` and ``lidar_tags``
 are not separate slices because the shipped policies were trained on this interleaved order. Rays
 spread evenly over ``field_of_view``, starting behind the robot and turning counter-clockwise.
 The coverage patch is an egocentric window of P × P cells of ``coverage_patch_cell`` metres,

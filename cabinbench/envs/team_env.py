@@ -25,7 +25,7 @@ R = ``n_rays``, P = ``coverage_patch``):
 | 6R … 6R + P² - 1 | ``coverage_patch`` | only if P > 0: the team's uncleaned floor around the robot  |
 | 6R + P², + 1     | ``velocity``       | forward speed / ``max_speed``, turn rate / ``max_turn_rate`` |
 
-The lidar part is ray-major (the shipped policies' order), so it is one slice, not DESIGN.md's
+The lidar part is ray-major (the shipped policies' order), so it is one slice, not the design's
 ``lidar_distance`` and ``lidar_tags``: see :mod:`cabinbench.envs.coverage_env` and
 :mod:`cabinbench.observation`.
 
