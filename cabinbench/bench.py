@@ -82,12 +82,16 @@ def bench_planner(layout: str, baseline: str = "boustrophedon") -> float:
     ``reset``, best of 3."""
     loaded = load_layout(layout)
     planner = load_baseline(baseline)
-    context = EpisodeContext(loaded, "sequential", seed=0)
-    planner.reset(context, np.zeros(0), {})  # warm-up
+    env = gym.make("CabinBench/Coverage-v0", layout=loaded)
+    observation, info = env.reset(seed=0)
+    context = EpisodeContext(
+        loaded, "sequential", seed=0, observation_layout=env.unwrapped.observation_layout
+    )
+    planner.reset(context, observation, info)  # warm-up
     timings = []
     for _ in range(3):
         started = time.perf_counter()
-        planner.reset(context, np.zeros(0), {})
+        planner.reset(context, observation, info)
         timings.append(time.perf_counter() - started)
     return min(timings)
 
