@@ -1,12 +1,24 @@
 """Navigation complexity (seed §4.1): Shannon entropy of each free cell's 8-neighbourhood.
 
 On an occupancy grid whose cells are robot-sized, a free cell with n occupied neighbours among
-its 8 (neighbours outside the map count as free) has p = n / 8 and
+its 8 (neighbours outside the map count as free, as Eq. 4.7 shows) has p = n / 8 and
 H = -p log2 p - (1 - p) log2 (1 - p), 0 when p is 0 or 1; obstacle cells score 0. ``total`` is
 the sum of H, ``normalized`` is total / (rows × cols). The seed's Table 4.1: 4.4859 (Matrix A)
-and 11.1065 (Matrix B).
+and 11.1065 (Matrix B); its Table 4.2 (the cabin map, 257.8176 / 0.4855): see the built-in
+layout ``paper_cabin_map``.
+
+The grid is :meth:`~cabinbench.layout.Layout.normalized_map`: a ``grid`` layout's map as its
+author wrote it; any other layout rasterised so that a robot-sized cell is free when the robot's
+centre can stand somewhere in it. That rule keeps every legroom gap the robot can enter free
+(a gap a little wider than the robot leaves its centre a strip only centimetres wide, which a
+rule "occupied when any obstacle touches the cell" loses), and marks floor the robot cannot reach
+as obstacle. The neighbour count is one convolution, the rasterisation one ``bincount`` over the
+coverage raster: no per-pixel Python loop.
 
     python -m cabinbench.complexity LAYOUT [--json] [--png FILE]
+
+``--json`` prints ``layout``, ``grid`` ([rows, cols]), ``total``, ``normalized`` and ``map``: the
+grid as rows of ``#`` (obstacle) and ``.`` (free), top row first, as a ``grid`` layout writes it.
 """
 
 from __future__ import annotations
@@ -50,8 +62,13 @@ def grid_complexity(occupancy: np.ndarray) -> Complexity:
 
 
 def layout_complexity(layout: Layout) -> Complexity:
-    """Complexity of a layout rasterised to robot-sized cells."""
-    return grid_complexity(layout.obstacle_grid())
+    """Complexity of a layout's normalised map (robot-sized cells, see the module doc)."""
+    return grid_complexity(layout.normalized_map())
+
+
+def map_rows(occupancy: np.ndarray) -> list[str]:
+    """The grid as a ``grid`` layout writes it: ``#`` obstacle, ``.`` free, top row first."""
+    return ["".join("#" if blocked else "." for blocked in row) for row in occupancy[::-1]]
 
 
 def save_complexity_png(result: Complexity, path: str, title: str = "") -> None:
@@ -90,6 +107,7 @@ def main(argv: list[str] | None = None) -> int:
         "grid": list(result.cell_map.shape),
         "total": round(result.total, 4),
         "normalized": round(result.normalized, 4),
+        "map": map_rows(result.occupancy),
     }
     if args.png:
         save_complexity_png(result, args.png, layout.name)

@@ -81,6 +81,7 @@ class Layout:
     success_coverage: float
     cleared_cells: int  # cells that count as cleaned at reset (the tracking cell starts with one)
     parameters: dict = field(default_factory=dict)  # the kind's own block, as written
+    written_map: np.ndarray | None = None  # a grid's map as its author wrote it (True = obstacle)
 
     # ----------------------------------------------------------------------------- geometry
     @cached_property
@@ -200,25 +201,29 @@ class Layout:
     def coverable_area(self) -> float:
         return float(self.coverable_raster.sum()) * RESOLUTION**2
 
-    def obstacle_grid(self, cell_size: float | None = None) -> np.ndarray:
-        """Occupancy on cells of ``cell_size`` (default: the robot's diameter), rows bottom to top.
+    def normalized_map(self) -> np.ndarray:
+        """The layout on robot-sized cells, True where the robot cannot be (the seed's "normalized
+        map", §4.2.1, Fig. 4.4(b)); rows bottom to top.
 
-        A cell is occupied when any obstacle touches it, i.e. when any non-free raster pixel centre
-        falls in it. The grid covers the extent; cells count whole robot sizes (rounded), so the
-        actual cell size is the extent divided by their number.
+        A ``grid`` layout's map is the one its author wrote, cell for cell, whatever the robot's
+        radius. Any other layout is rasterised: a cell is free when the robot's centre can stand
+        somewhere in it (a pixel of :attr:`centre_free`: clear of every wall by the radius plus
+        ``CONTACT_CLEARANCE``, and reachable from the start). So a legroom gap the robot can enter
+        stays free however thin a strip its centre has there, and floor the robot never reaches
+        counts as obstacle. The cells cover the extent; their number along each axis is the extent
+        in robot diameters, rounded, so a cell is the extent divided by that number.
         """
-        cell_size = cell_size or self.robot.tool_width
+        if self.written_map is not None:
+            return self.written_map.copy()
         xmin, ymin, xmax, ymax = self.extent
-        grid_rows = max(1, round((ymax - ymin) / cell_size))
-        grid_cols = max(1, round((xmax - xmin) / cell_size))
+        grid_rows = max(1, round((ymax - ymin) / self.robot.tool_width))
+        grid_cols = max(1, round((xmax - xmin) / self.robot.tool_width))
         xs, ys = self.pixel_centres()
         row_of = np.minimum(((ys - ymin) / (ymax - ymin) * grid_rows).astype(int), grid_rows - 1)
         col_of = np.minimum(((xs - xmin) / (xmax - xmin) * grid_cols).astype(int), grid_cols - 1)
-        occupied = np.zeros((grid_rows, grid_cols), dtype=bool)
-        on_map = (ys[:, None] < ymax) & (xs[None, :] < xmax)  # the raster's last partial pixels
-        blocked_rows, blocked_cols = np.nonzero(~self.free_raster & on_map)
-        occupied[row_of[blocked_rows], col_of[blocked_cols]] = True
-        return occupied
+        cell_of = row_of[:, None] * grid_cols + col_of[None, :]
+        standable = np.bincount(cell_of[self.centre_free], minlength=grid_rows * grid_cols)
+        return (standable == 0).reshape(grid_rows, grid_cols)
 
 
 # --------------------------------------------------------------------------------- loading
@@ -354,6 +359,7 @@ def parse_layout(text: str, source: str = "<string>", default_name: str = "layou
         ),
         cleared_cells=_cleared_cells(check, spec.get("cleared_cells", 0), len(cells)),
         parameters=dict(spec[kind_name]) if isinstance(spec[kind_name], dict) else {"map": spec[kind_name]},
+        written_map=geometry.written_map,
     )
     _validate_geometry(check, layout)
     layout.passages = _build_passages(layout)

@@ -200,6 +200,9 @@ class KindGeometry:
     obstacles: list[np.ndarray]  # polygons, each (n, 2)
     cells: list[Cell] | None = None  # None: the file's ``cells``, or one cell over the whole map
     start: tuple[float, float, float] | None = None  # used when the file gives no ``start``
+    # a map the author wrote in robot-sized cells (True = obstacle, rows bottom to top): the
+    # normalised map complexity is measured on, instead of one rasterised from the geometry
+    written_map: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

@@ -54,7 +54,8 @@ def build_grid(check: FieldChecker, block, robot: RobotSpec) -> KindGeometry:
     boundary = rectangle(0.0, 0.0, cols * cell_size, rows * cell_size)
     if start is None:
         start = central_start(check, lines, cell_size, [boundary, *obstacles], robot)
-    return KindGeometry(boundary, obstacles, start=start)
+    written = np.array([[mark == "#" for mark in line] for line in reversed(lines)], dtype=bool)
+    return KindGeometry(boundary, obstacles, start=start, written_map=written)
 
 
 def central_start(
