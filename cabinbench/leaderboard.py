@@ -29,15 +29,16 @@ from .leaderboard_ablation import ablation_csv, ablation_figure, ablation_markdo
 from .leaderboard_figures import training_figures, write_figures
 from .leaderboard_table import csv_table, group_rows, markdown, mixed_settings, summarize_row
 from .leaderboard_uncovered import uncovered_csv, uncovered_markdown, uncovered_rows
-from .records import read_records
+from .records import read_records, with_current_complexity
 
 
 def records_in(folder: str, option: str) -> pd.DataFrame:
-    """The records of a folder (empty when it does not exist); a bad record is a user error."""
+    """The records of a folder (empty when it does not exist), with each layout's complexity as it is
+    now (:func:`~cabinbench.records.with_current_complexity`); a bad record is a user error."""
     if not Path(folder).is_dir():
         return pd.DataFrame()
     try:
-        return read_records(folder)
+        return with_current_complexity(read_records(folder))
     except ValueError as error:
         raise UsageError(f"{option}: {error}; fix or remove that file") from None
 

@@ -7,7 +7,8 @@ metric of :mod:`cabinbench.metrics` (``METRICS``, plus ``TEAM_METRICS`` for K > 
 - ``benchmark_version``: ``cabinbench.__version__``;
 - ``git_commit``: ``git rev-parse HEAD`` of the source tree, or null when that fails;
 - ``layout``, ``layout_hash`` (:attr:`Layout.content_hash`: the YAML text's SHA-256, 16 hex),
-  ``layout_complexity`` (``{"normalized": ..., "total": ...}``, seed §4.1);
+  ``layout_complexity`` (``{"normalized": ..., "total": ...}``, seed §4.1, as measured when the
+  episode ran; reports read the current measure through :func:`with_current_complexity`);
 - ``baseline`` (the name or ``package.module:Class`` given), ``baseline_config`` (its settings);
 - ``protocol``, ``n_agents``;
 - ``seed`` (the run's base seed) and ``episode`` (index in the run): the episode's own seed is
@@ -52,7 +53,7 @@ import numpy as np
 
 from . import __version__
 from .complexity import layout_complexity
-from .layout import RESOLUTION, Layout
+from .layout import RESOLUTION, Layout, LayoutError, load_layout
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -99,6 +100,37 @@ def git_commit() -> str | None:
     return output[1] if re.fullmatch(r"[0-9a-f]{40}", output[1]) else None
 
 
+def complexity_field(layout: Layout) -> dict:
+    """A record's ``layout_complexity``."""
+    complexity = layout_complexity(layout)
+    return {"normalized": round(complexity.normalized, 6), "total": round(complexity.total, 6)}
+
+
+def with_current_complexity(records: pd.DataFrame) -> pd.DataFrame:
+    """``records`` with ``layout_complexity`` measured on each layout as it is now, so that a changed
+    measure (complexity is a property of the layout, not of the episode) needs no episode run
+    again. Only where the layout of that name loads and its ``layout_hash`` is the record's: a
+    record of another version of the layout, or of one not on the search path, keeps its own."""
+    if records.empty:
+        return records
+    current = {}
+    for name, content_hash in records[["layout", "layout_hash"]].drop_duplicates().itertuples(index=False):
+        try:
+            layout = load_layout(name)
+        except LayoutError:
+            continue
+        if layout.content_hash == content_hash:
+            current[name, content_hash] = complexity_field(layout)
+    records = records.copy()
+    records["layout_complexity"] = [
+        current.get((name, content_hash), recorded)
+        for name, content_hash, recorded in zip(
+            records["layout"], records["layout_hash"], records["layout_complexity"]
+        )
+    ]
+    return records
+
+
 def run_header(
     layout: Layout,
     baseline: str,
@@ -109,16 +141,12 @@ def run_header(
     env_config: dict,
 ) -> dict:
     """The fields shared by every record of a run (all of RECORD_FIELDS but ``episode`` and ``timestamp``)."""
-    complexity = layout_complexity(layout)
     return {
         "benchmark_version": __version__,
         "git_commit": git_commit(),
         "layout": layout.name,
         "layout_hash": layout.content_hash,
-        "layout_complexity": {
-            "normalized": round(complexity.normalized, 6),
-            "total": round(complexity.total, 6),
-        },
+        "layout_complexity": complexity_field(layout),
         "baseline": baseline,
         "baseline_config": baseline_config,
         "protocol": protocol,

@@ -20,7 +20,13 @@ from cabinbench import leaderboard, run
 from cabinbench.episodes import run_jobs
 from cabinbench.layout import available_layouts
 from cabinbench.metrics import METRICS, TEAM_METRICS
-from cabinbench.records import RECORD_FIELDS, read_records, read_trajectories, run_path
+from cabinbench.records import (
+    RECORD_FIELDS,
+    read_records,
+    read_trajectories,
+    run_path,
+    with_current_complexity,
+)
 from cabinbench.stats import iqm, mean_ci, reach_time
 
 SHORT = ["--baseline", "random_bounce", "--layout", "a320_cell", "--max-steps", "200"]
@@ -211,7 +217,7 @@ def test_leaderboard_is_reproducible(short_run, tmp_path):
     } <= names
     table = (tmp_path / "leaderboard.md").read_text()
     assert "CITATION.cff" in table and f"python -m cabinbench.leaderboard --runs {runs}" in table
-    assert "| a320_cell | 0.3011 / 23.19 | random_bounce | sequential | 1 | 3 | 3 |" in table
+    assert "| a320_cell | 0.4174 / 32.14 | random_bounce | sequential | 1 | 3 | 3 |" in table
     # where the uncovered floor lies: the bands of a row add up to what its episodes left uncovered
     [uncovered] = pd.read_csv(tmp_path / "uncovered.csv").to_dict("records")
     bands = [value for name, value in uncovered.items() if name.startswith("uncovered ")]
@@ -233,6 +239,26 @@ def test_uncovered_table_leaves_out_runs_whose_layout_changed(short_run, tmp_pat
     table = (tmp_path / "out" / "uncovered.md").read_text()
     assert "a320_cell / random_bounce / sequential / K=1: left out of the uncovered table" in table
     assert "| a320_cell | random_bounce |" not in table
+
+
+def test_leaderboard_reads_the_complexity_of_the_layout_as_it_is_now(short_run, tmp_path):
+    # a record made before the complexity measure changed: same layout file, older number
+    source = Path(short_run["records"])
+    record = json.loads(source.read_text().splitlines()[0])
+    stale = {"normalized": 0.3011, "total": 23.19}
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    for name, layout_hash in (("same", record["layout_hash"]), ("edited", "0" * 16)):
+        (runs / f"{name}.jsonl").write_text(
+            json.dumps({**record, "layout_hash": layout_hash, "layout_complexity": stale}) + "\n"
+        )
+        shutil.copy(source.with_suffix(".npz"), runs / f"{name}.npz")
+    table = with_current_complexity(read_records(runs)).set_index("layout_hash")
+    assert table.loc[record["layout_hash"], "layout_complexity"] == {
+        "normalized": 0.417446,
+        "total": 32.143343,
+    }
+    assert table.loc["0" * 16, "layout_complexity"] == stale  # another version of the layout keeps its own
 
 
 def test_leaderboard_without_records_fails(tmp_path, capsys):
@@ -288,7 +314,7 @@ def test_ablation_table_scores_each_training_run_and_their_spread(tmp_path):
     assert lines_csv[0] == "layout,baseline,policy,episodes,coverage,success,cells_cleared"
     assert [line.split(",")[2] for line in lines_csv[1:]] == ["shipped", str(other)]
     assert (
-        "| a320_cell | 0.3011 / 23.19 | ppo | sequential | 1 | 2 | 2 |"
+        "| a320_cell | 0.4174 / 32.14 | ppo | sequential | 1 | 2 | 2 |"
         in (tmp_path / "out" / "leaderboard.md").read_text()
     )
     assert Image.open(tmp_path / "out" / "figures" / "ablation_coverage.png").size[0] > 500
