@@ -2,12 +2,11 @@
 and count, exits move the robot on and the bound closes behind it."""
 
 import numpy as np
-import pytest
 
 from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.lidar import BOUND, EXIT, GOAL
 
-from .driving import action_towards, drive
+from .driving import drive
 
 
 def goal_tour(layout, cell):
@@ -26,25 +25,6 @@ def test_reaching_every_goal_clears_the_cell_and_ends_the_episode():
     assert terminated
     record = info["episode_record"]
     assert record["success"] and record["cells_cleared"] == 1 and record["bound_violations"] == 0
-
-
-def test_paper_rewards_follow_table_4_4():
-    env = CoverageEnv("a320_cell", reward="paper")
-    env.reset(seed=0)
-    _, step_reward, *_ = env.step([0.0, 0.0])
-    assert step_reward == pytest.approx(-0.01)
-    rewards, terminated = [], False
-    waypoints = iter(goal_tour(env.layout, 0))
-    target = next(waypoints)
-    while not terminated:
-        action, arrived = action_towards(env.world.poses[0], target)
-        if arrived:
-            target = next(waypoints)
-            continue
-        _, step_reward, terminated, *_ = env.step(action)
-        rewards.append(step_reward)
-    assert rewards.count(pytest.approx(0.49)) == 3  # three goals at +0.5 - 0.01
-    assert rewards[-1] == 3.0  # the clearing step is set to 3
 
 
 def test_bounds_block_the_aisle_and_count_violations():
