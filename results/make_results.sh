@@ -36,6 +36,9 @@ if $classic; then
     done
   done
 
+  # The seed's random motion as it describes it (§2.2.1, §5.2.3): any new heading, its 3000-step limit.
+  run --baseline random_bounce_study --layout a320_cell --protocol sequential --max-steps 3000
+
   # Teams: K = 1, 2, 4 on the two large layouts (K = 1 is recorded above); the planner in both protocols.
   team_run() { runs "0 100" 5 results/runs "$@"; }
   for layout in full_cabin b777_3col; do

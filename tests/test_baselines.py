@@ -8,6 +8,7 @@ from cabinbench.baselines.boustrophedon import plan_layout, record_demonstration
 from cabinbench.baselines.ppo_gail.demonstrations import load_demonstrations
 from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.layout import load_layout
+from cabinbench.world import TIME_STEP
 
 
 def run_episode(baseline_name, layout, protocol, seed=0, **env_kwargs):
@@ -40,6 +41,32 @@ def test_random_bounce_covers_clearly_less_in_the_same_limit():
     random = [run_episode("random_bounce", "a320_cell", "open", seed=seed) for seed in range(3)]
     assert max(r["coverage"] for r in random) < planner["coverage"] - 0.15
     assert all(r["time"] > planner["time"] for r in random)
+
+
+def bounce_turns(baseline_name, steps=600):
+    """The angle of each turn on the spot (radians), over ``steps`` of a real a320_cell episode."""
+    env = CoverageEnv("a320_cell")
+    observation, info = env.reset(seed=0)
+    baseline = load_baseline(baseline_name)
+    context = EpisodeContext(env.layout, "sequential", 0, observation_layout=env.observation_layout)
+    baseline.reset(context, observation, info)
+    turns, turning = [], 0.0
+    for _ in range(steps):
+        action = baseline.act(observation, info)
+        if action[0] == 0.0:  # on the spot: this step turns action[1] of the full turn rate
+            turning += abs(action[1]) * env.layout.robot.max_turn_rate * TIME_STEP
+        elif turning:
+            turns.append(turning)
+            turning = 0.0
+        observation, *_, info = env.step(action)
+    return turns
+
+
+def test_the_studys_random_motion_turns_by_any_angle():
+    # §2.2.1: "turns its heading with a random degree"; random_bounce keeps clear of turns under pi/4
+    study, ours = bounce_turns("random_bounce_study"), bounce_turns("random_bounce")
+    assert len(study) > 10 and len(ours) > 10
+    assert min(study) < np.pi / 4 <= min(ours)
 
 
 def test_full_cabin_plan_visits_every_cell_and_exit():
