@@ -202,7 +202,7 @@ class Layout:
         return float(self.coverable_raster.sum()) * RESOLUTION**2
 
     def normalized_map(self) -> np.ndarray:
-        """The layout on robot-sized cells, True where the robot cannot be (the seed's "normalized
+        """The layout on robot-sized cells, True where the robot cannot be (the study's "normalized
         map", §4.2.1, Fig. 4.4(b)); rows bottom to top.
 
         A ``grid`` layout's map is the one its author wrote, cell for cell, whatever the robot's

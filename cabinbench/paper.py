@@ -4,8 +4,10 @@ Fills ``paper/template.md``'s placeholders from generated material only: ``{{lay
 from the built-in layout files (size, cells, areas, complexity; never a user's
 ``CABINBENCH_LAYOUT_PATH``), ``{{leaderboard_table}}``, ``{{ablation_table}}`` and
 ``{{uncovered_table}}`` from ``results/leaderboard.md``, ``ablation.md`` and ``uncovered.md``
-(generated from the run records by ``python -m cabinbench.leaderboard``), and ``{{figures}}``
-from ``results/figures/``. Nothing in the paper's tables is typed by hand; the same inputs give a
+(generated from the run records by ``python -m cabinbench.leaderboard``), ``{{figures}}``
+from ``results/figures/``, and ``{{reproduction_table}}``, the study's claims against ours, from
+the layouts, the records in ``results/runs`` and the training configurations
+(:mod:`cabinbench.paper_reproduction`). Nothing in the paper's tables is typed by hand; the same inputs give a
 byte-identical paper. A missing input is a user error: one line, exit status 2.
 """
 
@@ -17,6 +19,8 @@ from pathlib import Path
 from .cli import ArgumentParser, UsageError, output_file, user_errors
 from .layout import builtin_layout_dir
 from .layouts import layout_summary
+from .paper_reproduction import reproduction_table
+from .records import read_records, with_current_complexity
 
 
 def layouts_table() -> str:
@@ -59,6 +63,9 @@ def build(template: Path, results: Path, out: Path) -> str:
         "{{ablation_table}}": generated_table(results / "ablation.md"),
         "{{uncovered_table}}": generated_table(results / "uncovered.md"),
         "{{figures}}": figures(results, out.parent),
+        "{{reproduction_table}}": reproduction_table(
+            with_current_complexity(read_records(results / "runs")), results
+        ),
     }
     for placeholder, value in replacements.items():
         text = text.replace(placeholder, value)

@@ -1,5 +1,5 @@
 """Navigation complexity reproduces the seed's Table 4.1 and Eq. 4.7/4.8, keeps the cabins' legroom
-gaps, and comes as near Table 4.2 as the seed's description of its cabin map allows."""
+gaps, and comes as near Table 4.2 as the study's description of its cabin map allows."""
 
 import itertools
 import json
@@ -12,7 +12,7 @@ from cabinbench.layout import available_layouts, load_layout, parse_layout
 
 
 def test_table_4_1_values():
-    # to 3 decimals, as printed in the seed (4.4859, 11.1065)
+    # to 3 decimals, as printed in the study (4.4859, 11.1065)
     assert layout_complexity(load_layout("paper_matrix_a")).total == pytest.approx(4.4859, abs=5e-4)
     assert layout_complexity(load_layout("paper_matrix_b")).total == pytest.approx(11.1065, abs=5e-4)
 
@@ -27,7 +27,7 @@ def test_cell_map_matches_eq_4_7():
 
 
 def test_cell_map_matches_eq_4_8_cell_by_cell():
-    # Matrix B (Eq. 4.6), printed top row first like the seed; its Eq. 4.8 rounds to 4 decimals
+    # Matrix B (Eq. 4.6), printed top row first like the study; its Eq. 4.8 rounds to 4 decimals
     cell_map = layout_complexity(load_layout("paper_matrix_b")).cell_map[::-1]
     eq_4_8 = [
         [0, 0.5436, 0, 0.5436, 0],
@@ -120,7 +120,7 @@ def cabin_map_variants():
             yield (front, n_front, rear, n_rear, first), np.column_stack(columns)
 
 
-def test_paper_cabin_map_is_the_nearest_map_the_seed_describes():
+def test_paper_cabin_map_is_the_nearest_map_the_study_describes():
     shipped = layout_complexity(load_layout("paper_cabin_map")).total
     totals = {variant: grid_complexity(occupancy).total for variant, occupancy in cabin_map_variants()}
     nearest = min(abs(total - 257.8176) for total in totals.values())
