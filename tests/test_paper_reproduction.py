@@ -1,0 +1,77 @@
+"""The paper's reproduction report: each row measured from layouts, records and training
+configurations, each verdict by its rule."""
+
+import json
+
+import pytest
+
+from cabinbench import run
+from cabinbench.paper_reproduction import range_verdict, ratio_verdict, reproduction_table, value_verdict
+from cabinbench.records import read_records
+
+
+def test_verdict_rules():
+    assert value_verdict(4.48594, 4.4859, 1e-4) == "reproduced"
+    assert value_verdict(254.6765, 257.8176, 1e-4) == "partly"  # 1.2 % off
+    assert value_verdict(0.30, 0.4855, 1e-4) == "not"
+    assert [range_verdict(x, 0.55, 0.65) for x in (0.60, 0.46, 0.37)] == ["reproduced", "partly", "not"]
+    assert [ratio_verdict(x, 5.0) for x in (5.2, 2.5, 0.9)] == ["reproduced", "partly", "not"]
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    """A results folder: a short real run of random_bounce_study and the study learner's config."""
+    results = tmp_path_factory.mktemp("results")
+    arguments = ["--baseline", "random_bounce_study", "--layout", "a320_cell", "--max-steps", "100"]
+    assert run.main([*arguments, "--episodes", "3", "--out", str(results / "runs")]) == 0
+    config = {
+        "layouts": ["a320_cell"],
+        "num_envs": 8,
+        "num_steps_per_env": 128,
+        "iterations": 10,
+        "reward": "paper",
+        "terminate_on_bound": True,
+        "coverage_patch": 0,
+        "hidden_dims": [512, 512],
+        "algorithm": {"gail_strength": 0.3},
+    }
+    (results / "training" / "ppo_gail_study").mkdir(parents=True)
+    (results / "training" / "ppo_gail_study" / "config.json").write_text(json.dumps(config))
+    return results
+
+
+def rows(table: str) -> dict[str, list[str]]:
+    """claim → [where, study, ours, verdict] of each row."""
+    cells = [[cell.strip() for cell in line.strip("|").split(" | ")] for line in table.splitlines()[2:]]
+    return {claim: [where, study, ours, verdict] for where, claim, study, ours, verdict in cells}
+
+
+def test_the_report_measures_each_claim(results):
+    table = rows(reproduction_table(read_records(results / "runs"), results))
+    assert table["complexity of A (`paper_matrix_a`)"][2:] == ["4.4859", "**reproduced**"]
+    assert table["cabin map, total"][2].startswith("254.6765")
+    assert table["`paper` reward: new goal (white cube) reached"][2:] == ["+0.5", "**reproduced**"]
+    # the study's learner as configured: lidar and velocity only, the study's settings
+    assert table["`ppo_gail_study` observes"][2:] == ["lidar (384) + velocity (2)", "**reproduced**"]
+    assert table["`ppo_gail_study` hidden layers"][3] == "**reproduced**"
+    assert table["`ppo_gail_study` training steps"][2:] == ["0.0M on a320_cell", "**not**"]
+    assert table["`ppo_gail`"][2] == "not yet trained: no configuration"  # none in this folder
+    # the random episodes, measured from the records: never completed in 100 steps
+    assert table["random motion never completes (`random_bounce_study`)"][2:] == [
+        "0 of 3 in 100 steps",
+        "**reproduced**",
+    ]
+    covers = table["random motion covers (`random_bounce_study`, 100 steps)"]
+    records = read_records(results / "runs")
+    assert covers[2].startswith(f"{records['coverage_free'].mean():.1%}")
+    assert covers[3].startswith("**not**")
+    # no learner has records here: no RL rows, rather than rows without numbers
+    assert not any(claim.startswith("RL ") for claim in table)
+
+
+def test_an_untrained_learner_is_said_to_be(results, tmp_path):
+    table = rows(reproduction_table(read_records(results / "runs"), tmp_path))
+    assert table["`ppo_gail_study`"][2:] == [
+        "not yet trained: no configuration",
+        "**not**: the study's learner has no shipped policy yet",
+    ]
