@@ -26,7 +26,7 @@ import pandas as pd
 
 from .complexity import layout_complexity
 from .envs.coverage_env import CoverageEnv
-from .layout import available_layouts, load_layout
+from .layout import builtin_layout_dir, load_layout
 from .records import read_trajectories
 from .rewards import paper
 from .stats import mean_ci
@@ -155,10 +155,9 @@ def complexity_rows() -> list[str]:
             why,
         )
     )
+    layouts = [load_layout(path) for path in sorted(builtin_layout_dir().glob("*.yaml"))]
     cabins = {
-        name: layout_complexity(load_layout(name)).normalized
-        for name, path in available_layouts().items()
-        if "kind: cabin" in path.read_text(encoding="utf-8")
+        layout.name: layout_complexity(layout).normalized for layout in layouts if layout.kind == "cabin"
     }
     low, high = min(cabins.values()), max(cabins.values())
     rows.append(
