@@ -350,6 +350,7 @@ def headline_rows(records: pd.DataFrame, learners: list[str]) -> list[str]:
                 else "partly"
                 if runs["success"].any()
                 else "not",
+                variant(learner),
             )
         )
         if random.empty:
@@ -394,6 +395,7 @@ def transfer_rows(records: pd.DataFrame, learners: list[str]) -> list[str]:
                         f"{low:.0%}-{high:.0%}",
                         interval(runs["coverage_free"]),
                         range_verdict(runs["coverage_free"].mean(), low, high),
+                        variant(learner),
                     )
                 )
             success = runs["success"].mean()
@@ -404,6 +406,7 @@ def transfer_rows(records: pd.DataFrame, learners: list[str]) -> list[str]:
                     "yes",
                     f"{success:.0%} of {len(runs)} episodes",
                     "reproduced" if success > 0.5 else "partly" if success > 0 else "not",
+                    variant(learner),
                 )
             )
     return rows
