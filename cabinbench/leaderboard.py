@@ -27,7 +27,8 @@ import pandas as pd
 from .cli import ArgumentParser, UsageError, output_folder, user_errors
 from .leaderboard_ablation import ablation_csv, ablation_figure, ablation_markdown, ablation_rows
 from .leaderboard_figures import training_figures, write_figures
-from .leaderboard_table import csv_table, group_rows, markdown, mixed_settings, summarize_row
+from .leaderboard_suites import classic, suite_records, suites_section
+from .leaderboard_table import csv_table, group_rows, markdown, mixed_settings, summarize_row, table_rows
 from .leaderboard_uncovered import uncovered_csv, uncovered_markdown, uncovered_rows
 from .records import read_records
 
@@ -72,7 +73,11 @@ def main(argv: list[str] | None = None) -> int:
     records = records_in(args.runs, "--runs")
     if records.empty:
         raise UsageError(f"--runs: no records in {args.runs}; run `python -m cabinbench.run ...` first")
-    groups = group_rows(records)
+    ablation_runs = Path(args.ablation_runs or Path(args.runs).parent / "ablation_runs").as_posix()
+    further = records_in(ablation_runs, "--ablation-runs")
+    every = pd.concat([records, further], ignore_index=True) if not further.empty else records
+    training = Path(args.training)
+    groups = group_rows(classic(records))
     rows = [summarize_row(key, episodes) for key, episodes in groups]
     notes = [note for key, episodes in groups for note in mixed_settings(key, episodes)]
     for note in notes:
@@ -81,8 +86,12 @@ def main(argv: list[str] | None = None) -> int:
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     command = f"python -m cabinbench.leaderboard --runs {args.runs} --out {out}"
-    (out / "leaderboard.md").write_text(markdown(rows, records, args.runs, command, notes), encoding="utf-8")
-    csv_table(rows).to_csv(out / "leaderboard.csv", index=False, float_format="%.6g", lineterminator="\n")
+    table = table_rows(classic(every), training)
+    sources = f"`{args.runs}` (shipped policies) and `{ablation_runs}` (the other training seeds' policies)"
+    text = markdown(table, classic(every), sources, command, notes)
+    suite_text, suite_figures = suites_section(suite_records(every), out)
+    (out / "leaderboard.md").write_text(text + suite_text, encoding="utf-8")
+    csv_table(table).to_csv(out / "leaderboard.csv", index=False, float_format="%.6g", lineterminator="\n")
     uncovered, uncovered_notes = uncovered_rows(groups)
     for note in uncovered_notes:
         print(f"warning: {note}", file=sys.stderr)
@@ -92,19 +101,16 @@ def main(argv: list[str] | None = None) -> int:
     uncovered_csv(uncovered).to_csv(
         out / "uncovered.csv", index=False, float_format="%.6g", lineterminator="\n"
     )
-    figures = write_figures(groups, rows, out / "figures") + training_figures(
-        Path(args.training), out / "figures"
+    figures = (
+        write_figures(groups, rows, out / "figures")
+        + training_figures(training, out / "figures")
+        + suite_figures
     )
     print(
-        f"{len(rows)} rows from {len(records)} episodes: {out / 'leaderboard.md'}, "
+        f"{len(table)} rows from {len(every)} episodes: {out / 'leaderboard.md'}, "
         f"{out / 'leaderboard.csv'}, {len(figures)} figures in {out / 'figures'}"
     )
-    ablation_runs = Path(args.ablation_runs or Path(args.runs).parent / "ablation_runs").as_posix()
-    further = records_in(ablation_runs, "--ablation-runs")
-    learned = ablation_rows(
-        pd.concat([records, further], ignore_index=True) if not further.empty else records,
-        Path(args.training),
-    )
+    learned = ablation_rows(classic(every), training)
     if learned:
         sources = f"`{args.runs}` (shipped policies) and `{ablation_runs}` (the others)"
         (out / "ablation.md").write_text(

@@ -21,23 +21,13 @@ from matplotlib import colormaps
 from matplotlib.figure import Figure  # no pyplot: figures render with Agg, no window, no global state
 
 from .leaderboard_figures import save_figure
+from .leaderboard_table import SHIPPED, policy_name, policy_of
 
 ABLATION_METRICS = {"coverage": ".3f", "success": ".2f", "cells_cleared": ".2f"}  # metric → number format
-SHIPPED = "shipped"  # the policy a learned baseline runs when no checkpoint is given
 SIGNALS = (
     "use_curiosity",
     "use_gail",
 )  # the reward signals a learned baseline adds to PPO (its training config)
-
-
-def policy_of(baseline_config: dict) -> str:
-    """The trained policy an episode ran: its ``checkpoint`` file, or the shipped one."""
-    return str(baseline_config.get("checkpoint", SHIPPED))
-
-
-def policy_name(policy: str) -> str:
-    """Short name of a policy in the tables: ``shipped``, or the folder holding its file (``seed1``)."""
-    return policy if policy == SHIPPED else Path(policy).parent.name or policy
 
 
 def ablation_rows(records: pd.DataFrame, training: Path) -> list[dict]:

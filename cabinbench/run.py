@@ -49,7 +49,7 @@ from .layout import load_layout
 from .metrics import METRICS, TEAM_METRICS
 from .records import RunWriter, run_header, run_path
 from .rewards import REWARD_PRESETS
-from .stats import Summary, summarize
+from .stats import Summary, distinct_episodes, summarize
 from .world import PROTOCOLS, start_poses
 
 GIF_FRAMES = 100  # frames spread over the step limit; the GIF stops early if the episode does
@@ -158,8 +158,13 @@ def summary_metrics(record: dict) -> list[str]:
 
 
 def summarize_run(records: list[dict]) -> dict[str, Summary]:
+    """Each metric's summary over the run's distinct episodes (a deterministic baseline from a
+    fixed start repeats one episode: one unit, no interval)."""
+    import pandas as pd
+
+    distinct = distinct_episodes(pd.DataFrame(records)).to_dict("records")
     return {
-        name: summarize(name, [record[name] for record in records]) for name in summary_metrics(records[0])
+        name: summarize(name, [record[name] for record in distinct]) for name in summary_metrics(records[0])
     }
 
 
@@ -170,9 +175,10 @@ def format_table(summaries: dict[str, Summary], title: str) -> str:
     lines = [title, f"{'metric':<18} {'mean':>10}   {'95% CI':<24} note", "-" * 64]
     for name, summary in summaries.items():
         interval = f"[{number(summary.low)}, {number(summary.high)}]"
-        note = (
-            f"reached in {summary.n} episodes ({summary.reached:.0%})" if summary.reached is not None else ""
-        )
+        if summary.reached is not None:
+            note = f"reached in {summary.n} distinct episodes ({summary.reached:.0%})"
+        else:
+            note = "one distinct episode: no interval" if summary.n == 1 else ""
         lines.append(f"{name:<18} {number(summary.mean):>10}   {interval:<24} {note}".rstrip())
     return "\n".join(lines)
 
