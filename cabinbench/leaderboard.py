@@ -102,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
         out / "uncovered.csv", index=False, float_format="%.6g", lineterminator="\n"
     )
     figures = (
-        write_figures(groups, rows, out / "figures")
+        (write_figures(groups, rows, out / "figures") if groups else [])  # none when every run is in a suite
         + training_figures(training, out / "figures")
         + suite_figures
     )

@@ -25,6 +25,7 @@ from .leaderboard_figures import save_figure
 from .leaderboard_table import layout_complexity_of, markdown_cell, policy_of, row_label
 from .records import safe_name
 from .stats import (
+    MIN_CORRELATION_PAIRS,
     Summary,
     distinct_episodes,
     iqm,
@@ -223,6 +224,11 @@ def complexity_figure(lines: list[dict], suite: str, path) -> None:
 
 def finding(lines: list[dict]) -> str:
     """The complexity finding in words, from the intervals: where ρ's interval excludes 0."""
+    if all(np.isnan(line[kind].low) for line in lines for kind in COMPLEXITY):
+        return (
+            f"Finding: too few layouts (under {MIN_CORRELATION_PAIRS}) or no variation for an interval on ρ: "
+            "this suite cannot tell whether complexity predicts difficulty."
+        )
     clear = [
         f"{line['label']}'s {line['difficulty']} (ρ = {line[kind].mean:.2f} with {kind} complexity)"
         for line in lines

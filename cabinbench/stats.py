@@ -29,7 +29,8 @@ float of every metric is not a coincidence worth planning for.
 - :func:`probability_of_improvement`: P(X > Y), per layout the Mann-Whitney probability that an
   episode of X beats one of Y (ties count half), averaged over layouts, with a bootstrap interval
   over layouts.
-- :func:`spearman`: Spearman's rank correlation with a bootstrap interval over (x, y) pairs.
+- :func:`spearman`: Spearman's rank correlation with a bootstrap interval over (x, y) pairs (from
+  ten pairs on).
 """
 
 from __future__ import annotations
@@ -50,6 +51,7 @@ CONFIDENCE = 0.95
 RESAMPLES = 9_999
 BOOTSTRAP_SEED = 0
 REACH_TIMES = tuple(f"t{round(threshold * 100)}" for threshold in COVERAGE_THRESHOLDS)  # t90, t95, t99
+MIN_CORRELATION_PAIRS = 10  # fewer pairs: a rank correlation without interval (see spearman)
 RATES = ("success",)  # booleans per episode: a rate with a Wilson interval
 # what an episode's outcome is: every metric but the machine's wall-clock time
 OUTCOME = tuple(name for name in (*METRICS, *TEAM_METRICS) if name != "wall_time")
@@ -261,7 +263,9 @@ def probability_of_improvement(
 def spearman(x, y) -> Summary:
     """Spearman's rank correlation of paired samples with a 95% percentile-bootstrap interval
     over pairs (resamples where either side is constant have no correlation and are left out).
-    Fewer than three pairs, or a constant side, give NaN."""
+    Fewer than three pairs, or a constant side, give NaN. Under :data:`MIN_CORRELATION_PAIRS`
+    pairs ρ has no interval: resampling a handful of pairs mostly redraws the same ranking (three
+    layouts in perfect order give [1, 1]), an interval that would claim a certainty it lacks."""
     x, y = _numbers(x), _numbers(y)
     if len(x) != len(y):
         raise ValueError("spearman: x and y must be paired")
@@ -271,6 +275,8 @@ def spearman(x, y) -> Summary:
     from scipy import stats
 
     rho = float(stats.spearmanr(x, y).statistic)
+    if n < MIN_CORRELATION_PAIRS:
+        return Summary(rho, math.nan, math.nan, n)
     draws = np.random.default_rng(BOOTSTRAP_SEED).integers(0, n, (RESAMPLES, n))
     ranks_x = stats.rankdata(x[draws], axis=1)
     ranks_y = stats.rankdata(y[draws], axis=1)

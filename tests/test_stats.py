@@ -106,10 +106,17 @@ def test_probability_of_improvement_by_hand():
 def test_spearman_by_hand_and_against_scipy():
     rho = spearman([1, 2, 3, 4, 5], [2, 1, 4, 3, 5])
     assert rho.mean == pytest.approx(0.8)  # Σd² = 4: 1 - 6·4 / (5·24)
-    assert rho.low < 0.8 <= rho.high <= 1.0 and rho == spearman([1, 2, 3, 4, 5], [2, 1, 4, 3, 5])
-    perfect = spearman([1, 2, 3, 4], [10, 20, 30, 40])
+    assert math.isnan(rho.low)  # five pairs: too few for a bootstrap interval
+    ten = spearman(range(10), [1, 0, 3, 2, 5, 4, 7, 6, 9, 8])
+    assert ten.mean == pytest.approx(1 - 6 * 10 / (10 * 99))  # Σd² = 10
+    assert ten.low < ten.mean <= ten.high <= 1.0 and ten == spearman(
+        range(10), [1, 0, 3, 2, 5, 4, 7, 6, 9, 8]
+    )
+    perfect = spearman(range(12), range(0, 120, 10))
     assert (perfect.mean, perfect.low, perfect.high) == (1.0, 1.0, 1.0)
     rng = np.random.default_rng(7)
     x, y = rng.random(30), rng.random(30)
-    assert spearman(x, y).mean == pytest.approx(scipy_stats.spearmanr(x, y).statistic)
+    noise = spearman(x, y)
+    assert noise.mean == pytest.approx(scipy_stats.spearmanr(x, y).statistic)
+    assert noise.low < 0 < noise.high  # independent samples: the interval holds zero
     assert math.isnan(spearman([1, 2], [3, 4]).mean) and math.isnan(spearman([1, 1, 1], [1, 2, 3]).mean)
