@@ -7,10 +7,15 @@ Reads every ``*.jsonl`` in ``--runs`` and ``--ablation-runs`` (default: ``ablati
 ``--runs``), and the ``.npz`` beside each (see :mod:`cabinbench.records`), and writes, from those
 files only, one report per module:
 
-- ``<out>/leaderboard.md`` and ``<out>/leaderboard.csv`` (:mod:`cabinbench.leaderboard_table`);
+- ``<out>/leaderboard.md`` and ``<out>/leaderboard.csv`` (:mod:`cabinbench.leaderboard_table`):
+  the records outside any suite, a row per training seed of a learned baseline (the shipped
+  policy's episodes come from ``--runs``, the other seeds' from ``--ablation-runs``);
+- the suites section of ``leaderboard.md`` and its ``figures/suite__*.png``, from the records
+  that carry a ``suite`` (:mod:`cabinbench.leaderboard_suites`; nothing when there are none);
 - ``<out>/uncovered.md`` and ``<out>/uncovered.csv`` (:mod:`cabinbench.leaderboard_uncovered`);
 - ``<out>/figures/``, the training curves of the shipped policies in ``--training`` among them
-  (:mod:`cabinbench.leaderboard_figures`);
+  (:mod:`cabinbench.leaderboard_figures`); the uncovered table and these figures are drawn per
+  shipped policy;
 - ``<out>/ablation.md``, ``<out>/ablation.csv`` and ``figures/ablation_coverage.png``
   (:mod:`cabinbench.leaderboard_ablation`). The shipped policies' episodes come from ``--runs``.
 

@@ -71,11 +71,9 @@ def episode_value(episodes: pd.DataFrame, metric: str) -> pd.Series:
 def suite_cells(episodes: pd.DataFrame) -> tuple[dict[tuple[str, str], pd.DataFrame], list[str]]:
     """(policy, layout) → that cell's distinct episodes, on the layouts every policy ran, and the
     layouts left out because some policy did not run them."""
-    policies = [policy_of(config) for config in episodes["baseline_config"]]
-    cells = {
-        (policy, layout): distinct_episodes(group)
-        for (policy, layout), group in episodes.groupby([policies, episodes["layout"].tolist()], sort=True)
-    }
+    episodes = episodes.assign(policy=[policy_of(config) for config in episodes["baseline_config"]])
+    distinct = distinct_episodes(episodes, within=("policy", "layout"))
+    cells = {key: group for key, group in distinct.groupby(["policy", "layout"], sort=True)}
     names = sorted({policy for policy, _ in cells})
     layouts = sorted({layout for _, layout in cells})
     kept = [layout for layout in layouts if all((policy, layout) in cells for policy in names)]

@@ -82,9 +82,10 @@ def _numbers(values) -> np.ndarray:
     return np.asarray(list(values), dtype=float)
 
 
-def distinct_episodes(episodes: pd.DataFrame) -> pd.DataFrame:
-    """The episodes with every repeat of an earlier episode's outcome (:data:`OUTCOME`) dropped."""
-    columns = [name for name in OUTCOME if name in episodes.columns]
+def distinct_episodes(episodes: pd.DataFrame, within: Sequence[str] = ()) -> pd.DataFrame:
+    """The episodes with every repeat of an earlier episode's outcome (:data:`OUTCOME`) dropped;
+    ``within``: columns that tell strata apart (the same outcome in two strata is kept twice)."""
+    columns = [*within, *(name for name in OUTCOME if name in episodes.columns)]
     return episodes.loc[~episodes[columns].astype(str).duplicated()]
 
 
@@ -195,10 +196,14 @@ def _percentile_interval(estimates: np.ndarray) -> tuple[float, float]:
 
 def _resample_weights(rng: np.random.Generator, size: int) -> np.ndarray:
     """(RESAMPLES, size): how often each of ``size`` items is drawn in each resample, over size."""
-    draws = rng.integers(0, size, (RESAMPLES, size))
-    counts = np.zeros((RESAMPLES, size))
-    np.add.at(counts, (np.arange(RESAMPLES)[:, None], draws), 1)
-    return counts / size
+    return _counts(rng.integers(0, size, (RESAMPLES, size)), size) / size
+
+
+def _counts(indices: np.ndarray, size: int) -> np.ndarray:
+    """(rows, size): how often each of ``0 .. size-1`` occurs in each row of ``indices``."""
+    rows = len(indices)
+    flat = (np.arange(rows)[:, None] * size + indices).ravel()
+    return np.bincount(flat, minlength=rows * size).reshape(rows, size).astype(float)
 
 
 def stratified_bootstrap(cells: Mapping[tuple[str, str], Sequence[float]]) -> Summary:
@@ -260,6 +265,15 @@ def probability_of_improvement(
     return mean_ci(per_layout)
 
 
+def _resampled_ranks(values: np.ndarray, draws: np.ndarray) -> np.ndarray:
+    """``scipy.stats.rankdata(values[draws], axis=1)`` (ties get their average rank) from counts:
+    a drawn value's rank is the number of draws below it plus the mean position among its ties."""
+    distinct, index = np.unique(values, return_inverse=True)
+    counts = _counts(index[draws], len(distinct))
+    average = np.cumsum(counts, axis=1) - counts + (counts + 1) / 2
+    return np.take_along_axis(average, index[draws], axis=1)
+
+
 def spearman(x, y) -> Summary:
     """Spearman's rank correlation of paired samples with a 95% percentile-bootstrap interval
     over pairs (resamples where either side is constant have no correlation and are left out).
@@ -278,8 +292,7 @@ def spearman(x, y) -> Summary:
     if n < MIN_CORRELATION_PAIRS:
         return Summary(rho, math.nan, math.nan, n)
     draws = np.random.default_rng(BOOTSTRAP_SEED).integers(0, n, (RESAMPLES, n))
-    ranks_x = stats.rankdata(x[draws], axis=1)
-    ranks_y = stats.rankdata(y[draws], axis=1)
+    ranks_x, ranks_y = _resampled_ranks(x, draws), _resampled_ranks(y, draws)
     ranks_x -= ranks_x.mean(axis=1, keepdims=True)
     ranks_y -= ranks_y.mean(axis=1, keepdims=True)
     spread = np.sqrt((ranks_x**2).sum(axis=1) * (ranks_y**2).sum(axis=1))
