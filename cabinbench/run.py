@@ -10,12 +10,13 @@ Plays N independent episodes (episode i is seeded with S + i), appends one recor
 episode to ``DIR/<layout>__<baseline>__<protocol>__k<K>__seed<S>-<time>.jsonl`` (trajectories
 in the sibling ``.npz``; format in :mod:`cabinbench.records`) and prints a table of per-metric
 means with 95% bootstrap intervals, or with ``--json`` one JSON object with the same numbers and
-the paths written. ``--suite`` plays the protocol of :mod:`cabinbench.suites`: N episodes on each
-of the suite's first K layouts (default all), each layout's records in a file of its own, with
-the field ``suite`` set; its episodes start from a pose drawn from the episode's seed
-(``--start random``, the default for generated suites; ``classic`` and ``--layout`` keep the
-layout's own start, ``--start fixed``), and the step limit is each layout's (scaled with its
-coverable area), recorded in ``env_config``. ``DIR`` defaults to the working folder ``runs/``: the committed
+the paths written. ``--suite`` plays the protocol of :mod:`cabinbench.suites`: N episodes on
+each of the suite's first K layouts (default all), each layout's records in a file of its own,
+with the field ``suite`` set; the layout at position p plays the seeds from ``S + p * N`` on.
+Its episodes start from a pose drawn from the episode's seed (``--start random``, the default
+for generated suites; ``classic`` and ``--layout`` keep the layout's own start, ``--start
+fixed``), and the step limit is each layout's (scaled with its coverable area), recorded in
+``env_config``. ``DIR`` defaults to the working folder ``runs/``: the committed
 ``results/runs`` are written by ``results/make_results.sh`` alone. ``--render`` draws the first
 episode: a PNG of its final state (trajectory over the map, covered area shaded: the seed's
 Fig. 5.11) or an animated GIF. ``--reward`` takes a preset of :mod:`cabinbench.rewards`.
@@ -243,7 +244,8 @@ def main(argv: list[str] | None = None) -> int:
 
     writers: dict[str, RunWriter] = {}
     jobs = []
-    for name, layout in layouts.items():
+    for position, (name, layout) in enumerate(layouts.items()):
+        seed = args.seed + position * episodes  # every episode of a suite run has a seed of its own
         max_steps = args.max_steps or layout.max_steps
         env_config = {**baseline.env_options, "reward": args.reward, "max_steps": max_steps}
         if random_start:
@@ -254,7 +256,7 @@ def main(argv: list[str] | None = None) -> int:
             getattr(baseline, "config", args.config),
             args.protocol,
             args.agents,
-            args.seed,
+            seed,
             env_config,
             suite,
         )
@@ -267,7 +269,7 @@ def main(argv: list[str] | None = None) -> int:
             EpisodeJob(
                 args.baseline,
                 name,
-                args.seed,
+                seed,
                 episode,
                 args.protocol,
                 args.agents,
@@ -332,9 +334,10 @@ def report(args, name: str, finished: list[EpisodeResult], writers: list[RunWrit
         )
         return
     where = f"suite {name}, {len(writers)} layouts" if args.suite else name
+    seeds = [result.job.episode_seed for result in finished]
     title = (
         f"{args.baseline} on {where} ({args.protocol}, K={args.agents}): {len(records)} episodes, "
-        f"seeds {args.seed}..{args.seed + max(result.job.episode for result in finished)}"
+        f"seeds {min(seeds)}..{max(seeds)}"
     )
     print(format_table(summaries, title))
     if args.suite:
