@@ -2,7 +2,6 @@
 statistics of issue 18 §4 and the complexity correlations of §5, checked against the records."""
 
 import json
-from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -14,21 +13,14 @@ from cabinbench.records import read_records
 from cabinbench.stats import stratified_bootstrap
 from tests.test_run_and_leaderboard import run_main
 
-SUITE = "tiny-v0"
-LAYOUTS = ("paper_matrix_a", "paper_matrix_b", "a320_cell")
-
-
-def into_suite(folder: Path) -> None:
-    """Give every record in ``folder`` the suite field a ``run --suite`` writes."""
-    for path in folder.glob("*.jsonl"):
-        records = [json.loads(line) for line in path.read_text().splitlines()]
-        path.write_text("".join(json.dumps({**record, "suite": SUITE}) + "\n" for record in records))
+SUITE = "cabin-v1-test"
 
 
 @pytest.fixture(scope="module")
 def suite_board(tmp_path_factory):
-    """random_bounce (3 episodes), boustrophedon (2, deterministic) and ppo's shipped policy and a
-    second policy file (2 each, in --ablation-runs) on three small layouts, 100 steps."""
+    """``run --suite`` on the suite's first three layouts, 100 steps: random_bounce (3 episodes a
+    layout), boustrophedon from each layout's fixed start (2, one episode repeated), and ppo's
+    shipped policy and a second policy file (2 each, the second in --ablation-runs)."""
     from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR
 
     root = tmp_path_factory.mktemp("suite")
@@ -36,19 +28,19 @@ def suite_board(tmp_path_factory):
     other.parent.mkdir(parents=True)
     other.write_bytes((CHECKPOINT_DIR / "ppo.pt").read_bytes())
     runs, further = root / "runs", root / "ablation_runs"
-    for layout in LAYOUTS:
-        short = ["--layout", layout, "--max-steps", "100", "--out", str(runs)]
-        assert run_main(["--baseline", "random_bounce", "--episodes", "3", *short])[0] == 0
-        assert run_main(["--baseline", "boustrophedon", "--episodes", "2", *short])[0] == 0
-        assert run_main(["--baseline", "ppo", "--episodes", "2", *short])[0] == 0
-        config = json.dumps({"checkpoint": str(other)})
-        ppo = ["--baseline", "ppo", "--episodes", "2", "--seed", "5", "--config", config]
-        assert run_main([*ppo, "--layout", layout, "--max-steps", "100", "--out", str(further)])[0] == 0
-    into_suite(runs)
-    into_suite(further)
+    suite = ["--suite", SUITE, "--layouts", "3", "--max-steps", "100"]
+    random = ["--baseline", "random_bounce", "--episodes-per-layout", "3"]
+    assert run_main([*random, *suite, "--out", str(runs)])[0] == 0
+    planner = ["--baseline", "boustrophedon", "--episodes-per-layout", "2", "--start", "fixed"]
+    assert run_main([*planner, *suite, "--out", str(runs)])[0] == 0
+    assert run_main(["--baseline", "ppo", "--episodes-per-layout", "2", *suite, "--out", str(runs)])[0] == 0
+    config = json.dumps({"checkpoint": str(other)})
+    ppo = ["--baseline", "ppo", "--episodes-per-layout", "2", "--seed", "5", "--config", config]
+    assert run_main([*ppo, *suite, "--out", str(further)])[0] == 0
     out = root / "out"
     assert leaderboard.main(["--runs", str(runs), "--ablation-runs", str(further), "--out", str(out)]) == 0
     records = pd.concat([read_records(runs), read_records(further)], ignore_index=True)
+    assert set(records["suite"]) == {SUITE} and records["layout"].nunique() == 3
     return out, records
 
 
@@ -65,7 +57,7 @@ def test_suite_table_scores_the_mean_over_layouts_of_per_layout_means(suite_boar
     board = (out / "leaderboard.md").read_text()
     assert "### Suites" in board and board.count("#### Suite ") == 1
     # suite episodes stay out of the classic table
-    assert "| paper_matrix_a |" not in board.split("### Suites")[0]
+    assert f"| {SUITE}/" not in board.split("### Suites")[0]
     rb = records[records["baseline"] == "random_bounce"]
     expected = rb.groupby("layout")["coverage"].mean().mean()
     cells = suite_table_row(board, "random_bounce")
@@ -76,7 +68,8 @@ def test_suite_table_scores_the_mean_over_layouts_of_per_layout_means(suite_boar
         {("shipped", layout): group["coverage"].tolist() for layout, group in rb.groupby("layout")}
     )
     assert cells[7] == f"{summary.mean:.3f} ± {(summary.high - summary.low) / 2:.3f}"
-    # boustrophedon repeats one episode per layout: one unit per layout, the layouts make the interval
+    # boustrophedon from a fixed start repeats one episode per layout: one unit per layout, the
+    # layouts make the interval
     assert suite_table_row(board, "boustrophedon")[3:7] == ["1", "3", "6", "3"]
 
 
