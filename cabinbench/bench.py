@@ -9,6 +9,9 @@ Measures:
   of 3), on one core and with ``num_workers`` = the machine's cores (this process steps one shard,
   a worker each other);
 - the boustrophedon planner's time to plan ``full_cabin``;
+- generating one cabin layout of each shipped family (mean over fresh indices), loading every
+  layout of ``cabin-v1-test``, and the single env's steps/s on a generated layout
+  (``cabin-v1-test/0007``, to set beside ``a320_cell``);
 - peers stepped in the same run, so ratios survive machine drift: PettingZoo's Pistonball
   (pymunk physics, like ours; needs pygame) and Gymnasium's CartPole (pure-Python physics, a
   floor for per-step overhead).
@@ -116,6 +119,27 @@ def bench_pistonball(steps: int) -> float | None:
     return agent_steps / (time.perf_counter() - started)
 
 
+def bench_generation(family: str, count: int = 20) -> float:
+    """Mean seconds to generate one layout of ``family``, at indices no suite draws (so none is cached)."""
+    from cabinbench.layout_family import generate, load_family
+
+    loaded = load_family(family)
+    started = time.perf_counter()
+    for index in range(10**6, 10**6 + count):
+        generate(loaded, index)
+    return (time.perf_counter() - started) / count
+
+
+def bench_suite_load(suite: str) -> float:
+    """Seconds to load every layout of ``suite`` by name, as a run or a user does."""
+    from cabinbench.suites import get_suite
+
+    started = time.perf_counter()
+    for name in get_suite(suite).layout_names:
+        load_layout(name)
+    return time.perf_counter() - started
+
+
 @user_errors
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(
@@ -139,6 +163,10 @@ def main(argv: list[str] | None = None) -> int:
         ),
         f"batched_a320_cell_agent_steps_per_s_{len(cores)}_workers": all_cores,
         "boustrophedon_plan_full_cabin_s": bench_planner("full_cabin"),
+        "generate_cabin_v1_layout_s": bench_generation("cabin_v1"),
+        "generate_cabin_v1_ood_layout_s": bench_generation("cabin_v1_ood"),
+        "load_cabin_v1_test_s": bench_suite_load("cabin-v1-test"),
+        "single_cabin_v1_test_0007_steps_per_s": bench_single("cabin-v1-test/0007", args.steps),
         "peer_cartpole_steps_per_s": steps_per_second(gym.make("CartPole-v1"), args.steps),
         "peer_pistonball_agent_steps_per_s": bench_pistonball(max(50, args.steps // 200)),
     }
@@ -154,6 +182,10 @@ def main(argv: list[str] | None = None) -> int:
         "single_a320_cell_steps_per_s": "target >= 10,000",
         f"batched_a320_cell_agent_steps_per_s_{len(cores)}_workers": "target >= 50,000 on this machine",
         "boustrophedon_plan_full_cabin_s": "target < 1 s",
+        "generate_cabin_v1_layout_s": "target <= 0.05 s",
+        "generate_cabin_v1_ood_layout_s": "target <= 0.05 s",
+        "load_cabin_v1_test_s": "target <= 5 s",
+        "single_cabin_v1_test_0007_steps_per_s": "target: as a320_cell",
     }
     for name, value in results.items():
         shown = (

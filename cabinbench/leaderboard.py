@@ -7,10 +7,15 @@ Reads every ``*.jsonl`` in ``--runs`` and ``--ablation-runs`` (default: ``ablati
 ``--runs``), and the ``.npz`` beside each (see :mod:`cabinbench.records`), and writes, from those
 files only, one report per module:
 
-- ``<out>/leaderboard.md`` and ``<out>/leaderboard.csv`` (:mod:`cabinbench.leaderboard_table`);
+- ``<out>/leaderboard.md`` and ``<out>/leaderboard.csv`` (:mod:`cabinbench.leaderboard_table`):
+  the records outside any suite, a row per training seed of a learned baseline (the shipped
+  policy's episodes come from ``--runs``, the other seeds' from ``--ablation-runs``);
+- the suites section of ``leaderboard.md`` and its ``figures/suite__*.png``, from the records
+  that carry a ``suite`` (:mod:`cabinbench.leaderboard_suites`; nothing when there are none);
 - ``<out>/uncovered.md`` and ``<out>/uncovered.csv`` (:mod:`cabinbench.leaderboard_uncovered`);
 - ``<out>/figures/``, the training curves of the shipped policies in ``--training`` among them
-  (:mod:`cabinbench.leaderboard_figures`);
+  (:mod:`cabinbench.leaderboard_figures`); the uncovered table and these figures are drawn per
+  shipped policy;
 - ``<out>/ablation.md``, ``<out>/ablation.csv`` and ``figures/ablation_coverage.png``
   (:mod:`cabinbench.leaderboard_ablation`). The shipped policies' episodes come from ``--runs``.
 
@@ -27,7 +32,8 @@ import pandas as pd
 from .cli import ArgumentParser, UsageError, output_folder, user_errors
 from .leaderboard_ablation import ablation_csv, ablation_figure, ablation_markdown, ablation_rows
 from .leaderboard_figures import training_figures, write_figures
-from .leaderboard_table import csv_table, group_rows, markdown, mixed_settings, summarize_row
+from .leaderboard_suites import classic, suite_records, suites_section
+from .leaderboard_table import csv_table, group_rows, markdown, mixed_settings, summarize_row, table_rows
 from .leaderboard_uncovered import uncovered_csv, uncovered_markdown, uncovered_rows
 from .records import read_records, with_current_complexity
 
@@ -73,7 +79,11 @@ def main(argv: list[str] | None = None) -> int:
     records = records_in(args.runs, "--runs")
     if records.empty:
         raise UsageError(f"--runs: no records in {args.runs}; run `python -m cabinbench.run ...` first")
-    groups = group_rows(records)
+    ablation_runs = Path(args.ablation_runs or Path(args.runs).parent / "ablation_runs").as_posix()
+    further = records_in(ablation_runs, "--ablation-runs")
+    every = pd.concat([records, further], ignore_index=True) if not further.empty else records
+    training = Path(args.training)
+    groups = group_rows(classic(records))
     rows = [summarize_row(key, episodes) for key, episodes in groups]
     notes = [note for key, episodes in groups for note in mixed_settings(key, episodes)]
     for note in notes:
@@ -82,8 +92,12 @@ def main(argv: list[str] | None = None) -> int:
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     command = f"python -m cabinbench.leaderboard --runs {args.runs} --out {out}"
-    (out / "leaderboard.md").write_text(markdown(rows, records, args.runs, command, notes), encoding="utf-8")
-    csv_table(rows).to_csv(out / "leaderboard.csv", index=False, float_format="%.6g", lineterminator="\n")
+    table = table_rows(classic(every), training)
+    sources = f"`{args.runs}` (shipped policies) and `{ablation_runs}` (the other training seeds' policies)"
+    text = markdown(table, classic(every), sources, command, notes)
+    suite_text, suite_figures = suites_section(suite_records(every), out)
+    (out / "leaderboard.md").write_text(text + suite_text, encoding="utf-8")
+    csv_table(table).to_csv(out / "leaderboard.csv", index=False, float_format="%.6g", lineterminator="\n")
     uncovered, uncovered_notes = uncovered_rows(groups)
     for note in uncovered_notes:
         print(f"warning: {note}", file=sys.stderr)
@@ -93,19 +107,16 @@ def main(argv: list[str] | None = None) -> int:
     uncovered_csv(uncovered).to_csv(
         out / "uncovered.csv", index=False, float_format="%.6g", lineterminator="\n"
     )
-    figures = write_figures(groups, rows, out / "figures") + training_figures(
-        Path(args.training), out / "figures"
+    figures = (
+        (write_figures(groups, rows, out / "figures") if groups else [])  # none when every run is in a suite
+        + training_figures(training, out / "figures")
+        + suite_figures
     )
     print(
-        f"{len(rows)} rows from {len(records)} episodes: {out / 'leaderboard.md'}, "
+        f"{len(table)} rows from {len(every)} episodes: {out / 'leaderboard.md'}, "
         f"{out / 'leaderboard.csv'}, {len(figures)} figures in {out / 'figures'}"
     )
-    ablation_runs = Path(args.ablation_runs or Path(args.runs).parent / "ablation_runs").as_posix()
-    further = records_in(ablation_runs, "--ablation-runs")
-    learned = ablation_rows(
-        pd.concat([records, further], ignore_index=True) if not further.empty else records,
-        Path(args.training),
-    )
+    learned = ablation_rows(classic(every), training)
     if learned:
         sources = f"`{args.runs}` (shipped policies) and `{ablation_runs}` (the others)"
         (out / "ablation.md").write_text(

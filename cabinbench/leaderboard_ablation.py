@@ -4,10 +4,10 @@
 One training run per ablation says little: two seeds of the same command differ as much as the
 ablations do. So the policies of further training seeds
 (``results/training/<baseline>/seed<S>/policy.pt``) are run like the shipped ones, into their own
-records folder (only those records: the leaderboard's rows stay the shipped policies'); per
-(layout, baseline) the table gives each policy's mean over its episodes, and the mean over
-policies with the lowest and highest policy. The figure draws the coverage: a bar for the mean
-over policies, a dot per policy.
+records folder (the leaderboard shows a row per policy and one over all of them, with the
+interval over seeds); per (layout, baseline) this table sets the ablations side by side: each
+policy's mean over its episodes, and the mean over policies with the lowest and highest policy.
+The figure draws the coverage: a bar for the mean over policies, a dot per policy.
 """
 
 from __future__ import annotations
@@ -21,23 +21,13 @@ from matplotlib import colormaps
 from matplotlib.figure import Figure  # no pyplot: figures render with Agg, no window, no global state
 
 from .leaderboard_figures import save_figure
+from .leaderboard_table import SHIPPED, policy_name, policy_of
 
 ABLATION_METRICS = {"coverage": ".3f", "success": ".2f", "cells_cleared": ".2f"}  # metric → number format
-SHIPPED = "shipped"  # the policy a learned baseline runs when no checkpoint is given
 SIGNALS = (
     "use_curiosity",
     "use_gail",
 )  # the reward signals a learned baseline adds to PPO (its training config)
-
-
-def policy_of(baseline_config: dict) -> str:
-    """The trained policy an episode ran: its ``checkpoint`` file, or the shipped one."""
-    return str(baseline_config.get("checkpoint", SHIPPED))
-
-
-def policy_name(policy: str) -> str:
-    """Short name of a policy in the tables: ``shipped``, or the folder holding its file (``seed1``)."""
-    return policy if policy == SHIPPED else Path(policy).parent.name or policy
 
 
 def ablation_rows(records: pd.DataFrame, training: Path) -> list[dict]:
@@ -149,13 +139,12 @@ def ablation_markdown(rows: list[dict], sources: str, command: str) -> str:
         "",
         "Each learned baseline is trained by the same command with the same budget under several seeds "
         "(`python -m cabinbench.train --baseline NAME --seed S`). `shipped`: the policy in "
-        "`baselines/ppo_gail/checkpoints/` (the leaderboard's row); `seedS`: "
+        "`baselines/ppo_gail/checkpoints/` (the leaderboard's `(shipped)` rows); `seedS`: "
         "`results/training/NAME/seedS/policy.pt`. "
         "Each policy is scored by its mean over its episodes; a cell gives the mean over the policies and, "
         "in "
-        "brackets, the lowest and highest policy. With a few training runs that range, not a confidence "
-        "interval, "
-        "is the uncertainty to read. Sequential protocol, one robot; zero-shot on all but `a320_cell`.",
+        "brackets, the lowest and highest policy; the leaderboard's `all seeds` rows give the interval over "
+        "training seeds. Sequential protocol, one robot; zero-shot on all but `a320_cell`.",
         "",
         "| layout | baseline | ICM | GAIL | policies | episodes | "
         + " | ".join(metric for metric in ABLATION_METRICS)

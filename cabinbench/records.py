@@ -6,13 +6,16 @@ metric of :mod:`cabinbench.metrics` (``METRICS``, plus ``TEAM_METRICS`` for K > 
 
 - ``benchmark_version``: ``cabinbench.__version__``;
 - ``git_commit``: ``git rev-parse HEAD`` of the source tree, or null when that fails;
-- ``layout``, ``layout_hash`` (:attr:`Layout.content_hash`: the YAML text's SHA-256, 16 hex),
-  ``layout_complexity`` (``{"normalized": ..., "total": ...}``, seed §4.1, as measured when the
-  episode ran; reports read the current measure through :func:`with_current_complexity`);
+- ``layout``, ``layout_hash`` (:attr:`Layout.content_hash`: the YAML text's SHA-256, 16 hex; for
+  a generated layout its geometry's), ``layout_complexity`` (``{"normalized": ..., "total": ...}``,
+  seed §4.1, as measured when the episode ran; reports read the current measure through
+  :func:`with_current_complexity`), ``suite`` (the suite the layout was played in,
+  :mod:`cabinbench.suites`, or null);
 - ``baseline`` (the name or ``package.module:Class`` given), ``baseline_config`` (its settings);
 - ``protocol``, ``n_agents``;
 - ``seed`` (the run's base seed) and ``episode`` (index in the run): the episode's own seed is
   ``seed + episode`` (see :mod:`cabinbench.episodes`);
+- ``start``: the pose ``[x, y, heading]`` the episode started from (a team: one per robot);
 - ``env_config`` (reward preset, ``max_steps`` and any other env setting);
 - ``timestamp``: when the episode finished, ISO 8601 UTC.
 
@@ -64,12 +67,14 @@ RECORD_FIELDS = (
     "layout",
     "layout_hash",
     "layout_complexity",
+    "suite",
     "baseline",
     "baseline_config",
     "protocol",
     "n_agents",
     "seed",
     "episode",
+    "start",
     "env_config",
     "timestamp",
 )
@@ -139,14 +144,17 @@ def run_header(
     n_agents: int,
     seed: int,
     env_config: dict,
+    suite: str | None = None,
 ) -> dict:
-    """The fields shared by every record of a run (all of RECORD_FIELDS but ``episode`` and ``timestamp``)."""
+    """The fields shared by every record of a run (all of RECORD_FIELDS but ``episode``, ``start``
+    and ``timestamp``)."""
     return {
         "benchmark_version": __version__,
         "git_commit": git_commit(),
         "layout": layout.name,
         "layout_hash": layout.content_hash,
         "layout_complexity": complexity_field(layout),
+        "suite": suite,
         "baseline": baseline,
         "baseline_config": baseline_config,
         "protocol": protocol,
@@ -223,14 +231,17 @@ class RunWriter:
         return trajectory_path(self.path)
 
     def write(self, episode: int, metrics: dict, trajectory: dict) -> dict:
-        """Save one finished episode; return its record. The trajectory goes first, so that every
-        record line has its trajectory even if the run is killed in between."""
+        """Save one finished episode (``metrics``: the env's record plus its ``start``); return its
+        record. The trajectory goes first, so that every record line has its trajectory even if
+        the run is killed in between."""
         for name, array in downsample(trajectory).items():
             self.trajectories[f"episode{episode}_{name}"] = array
         self._save_trajectories()
         timestamp = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-        record = {**self.header, "episode": episode, "timestamp": timestamp}
-        record = {name: record[name] for name in RECORD_FIELDS} | metrics
+        record = {**self.header, **metrics, "episode": episode, "timestamp": timestamp}
+        record = {name: record[name] for name in RECORD_FIELDS} | {
+            name: value for name, value in metrics.items() if name not in RECORD_FIELDS
+        }
         with open(self.path, "a", encoding="utf-8") as file:
             file.write(json.dumps(record, default=_jsonable) + "\n")
             file.flush()

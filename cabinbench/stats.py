@@ -1,31 +1,60 @@
-"""Statistics over episodes: the one place where summaries and confidence intervals are computed.
+"""Statistics over episodes: the one place where summaries and confidence intervals are defined.
 
-Used by ``python -m cabinbench.run`` (its table and ``--json``) and by the leaderboard.
+Used by ``python -m cabinbench.run`` (its table and ``--json``) and by the leaderboard (its
+classic table and its suites section). Every interval is a 95% interval; every resampling uses a
+fixed seed, so the same records give byte-identical reports.
 
-- :func:`mean_ci`: the mean and a 95% percentile-bootstrap confidence interval
-  (``scipy.stats.bootstrap``, 9,999 resamples, a fixed seed so that the leaderboard is
-  reproducible byte for byte). One episode has no interval (both bounds NaN); a constant sample
-  has the degenerate interval [c, c]. Percentile rather than BCa because BCa is undefined for
-  the near-constant samples this benchmark produces (e.g. ``success`` all true).
-- :func:`iqm`: the interquartile mean, ``scipy.stats.trim_mean(x, 0.25)`` (robust to the odd
-  stuck episode, as recommended by Agarwal et al. 2021).
-- :func:`reach_time`: for ``t90``/``t95``/``t99``, which are null in episodes that never reached
-  the threshold: the mean (and interval) over the episodes that did, plus the fraction that did.
+What is a unit (the rule against intervals over identical episodes). An interval is computed over
+*distinct* episodes only: two episodes of a row with the same value of every recorded outcome
+(:data:`OUTCOME`: every metric but ``wall_time``) are one episode repeated and count once
+(:func:`distinct_episodes`). A deterministic baseline run from one fixed start gives the same
+episode under every seed, so its row is one unit: it has a mean and no interval, and the tables
+say "deterministic: n identical episodes". Two genuinely different episodes agreeing on every
+float of every metric is not a coincidence worth planning for.
+
+- :func:`mean_ci`: the mean and a percentile-bootstrap interval (``scipy.stats.bootstrap``,
+  9,999 resamples). One unit has no interval (both bounds NaN); distinct episodes with the same
+  value of this metric have the degenerate interval [c, c]. Percentile rather than BCa because
+  BCa is undefined for the near-constant samples this benchmark produces.
+- :func:`success_rate`: a rate with its Wilson score interval (``scipy.stats.binomtest``): 20
+  successes of 20 give [0.839, 1.0], not ``1.00 ± 0.00``.
+- :func:`iqm`: the interquartile mean, ``scipy.stats.trim_mean(x, 0.25)`` (Agarwal et al. 2021).
+- :func:`reach_time`: for ``t90``/``t95``/``t99``, null in episodes that never reached the
+  threshold: the mean (and interval) over the episodes that did, plus the fraction that did.
+- :func:`stratified_bootstrap`: a score over several layouts (and, for a learned baseline, several
+  training seeds): the mean over training seeds of the mean over layouts of per-layout means, with
+  a stratified bootstrap interval that resamples training seeds, layouts, and episodes within each
+  (seed, layout) cell, as rliable recommends.
+- :func:`performance_profile`: the fraction of layouts whose score is above each level.
+- :func:`probability_of_improvement`: P(X > Y), per layout the Mann-Whitney probability that an
+  episode of X beats one of Y (ties count half), averaged over layouts, with a bootstrap interval
+  over layouts.
+- :func:`spearman`: Spearman's rank correlation with a bootstrap interval over (x, y) pairs (from
+  ten pairs on).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .metrics import COVERAGE_THRESHOLDS
+from .metrics import COVERAGE_THRESHOLDS, METRICS, TEAM_METRICS
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 CONFIDENCE = 0.95
 RESAMPLES = 9_999
 BOOTSTRAP_SEED = 0
 REACH_TIMES = tuple(f"t{round(threshold * 100)}" for threshold in COVERAGE_THRESHOLDS)  # t90, t95, t99
+MIN_CORRELATION_PAIRS = 10  # fewer pairs: a rank correlation without interval (see spearman)
+RATES = ("success",)  # booleans per episode: a rate with a Wilson interval
+# what an episode's outcome is: every metric but the machine's wall-clock time
+OUTCOME = tuple(name for name in (*METRICS, *TEAM_METRICS) if name != "wall_time")
 
 
 @dataclass(frozen=True)
@@ -35,7 +64,7 @@ class Summary:
     mean: float
     low: float
     high: float
-    n: int
+    n: int  # distinct units the interval is computed over
     reached: float | None = None  # fraction of episodes that reached the threshold (t90 ...)
 
     def as_dict(self) -> dict:
@@ -53,15 +82,26 @@ def _numbers(values) -> np.ndarray:
     return np.asarray(list(values), dtype=float)
 
 
+def distinct_episodes(episodes: pd.DataFrame, within: Sequence[str] = ()) -> pd.DataFrame:
+    """The episodes with every repeat of an earlier episode's outcome (:data:`OUTCOME`) dropped;
+    ``within``: columns that tell strata apart (the same outcome in two strata is kept twice)."""
+    columns = [*within, *(name for name in OUTCOME if name in episodes.columns)]
+    return episodes.loc[~episodes[columns].astype(str).duplicated()]
+
+
+def _without_interval(sample: np.ndarray) -> Summary:
+    """No unit or one: the mean (NaN for none) and no interval."""
+    return Summary(float(sample.mean()) if len(sample) else math.nan, math.nan, math.nan, len(sample))
+
+
 def mean_ci(values) -> Summary:
-    """Mean and 95% percentile-bootstrap interval of a sample (booleans count as 0/1)."""
+    """Mean and 95% percentile-bootstrap interval of a sample of distinct units (booleans count
+    as 0/1)."""
     sample = _numbers(values)
     n = len(sample)
-    if n == 0:
-        return Summary(math.nan, math.nan, math.nan, 0)
+    if n < 2:
+        return _without_interval(sample)
     mean = float(sample.mean())
-    if n == 1:
-        return Summary(mean, math.nan, math.nan, 1)
     if np.ptp(sample) == 0:  # every resample is the same: skip scipy's degenerate-data warning
         return Summary(mean, mean, mean, n)
     from scipy import stats  # here, not at the top: 0.8 s of every command's start-up
@@ -77,6 +117,19 @@ def mean_ci(values) -> Summary:
     )
     interval = result.confidence_interval
     return Summary(mean, float(interval.low), float(interval.high), n)
+
+
+def success_rate(values) -> Summary:
+    """The rate of true values with its 95% Wilson score interval; one unit has no interval."""
+    sample = _numbers(values)
+    n = len(sample)
+    if n < 2:
+        return _without_interval(sample)
+    successes = int(sample.sum())
+    from scipy import stats
+
+    interval = stats.binomtest(successes, n).proportion_ci(confidence_level=CONFIDENCE, method="wilson")
+    return Summary(successes / n, float(interval.low), float(interval.high), n)
 
 
 def iqm(values) -> float:
@@ -98,6 +151,151 @@ def reach_time(values) -> Summary:
 
 
 def summarize(metric: str, values) -> Summary:
-    """The summary a metric gets everywhere: threshold times (``t90`` ...) via :func:`reach_time`,
-    everything else via :func:`mean_ci`."""
-    return reach_time(values) if metric in REACH_TIMES else mean_ci(values)
+    """The summary a metric gets over one sample of distinct episodes: threshold times (``t90``
+    ...) via :func:`reach_time`, rates via :func:`success_rate`, everything else via
+    :func:`mean_ci`."""
+    if metric in REACH_TIMES:
+        return reach_time(values)
+    return success_rate(values) if metric in RATES else mean_ci(values)
+
+
+def summarize_cells(metric: str, cells: Mapping[tuple[str, str], Sequence]) -> Summary:
+    """The summary a metric gets over (training seed, layout) cells of distinct episodes: one cell
+    is :func:`summarize`; several are :func:`stratified_bootstrap`, except rates, whose Wilson
+    interval is over the pooled episodes (it takes them as independent draws: the spread between
+    training seeds shows in each seed's own row), and threshold times, whose interval runs over
+    the cells where some episode reached the threshold (``reached``: the pooled fraction)."""
+    if len(cells) == 1 or metric in RATES:
+        return summarize(metric, [value for cell in cells.values() for value in cell])
+    if metric not in REACH_TIMES:
+        return stratified_bootstrap(cells)
+    pooled = _numbers(np.nan if value is None else value for cell in cells.values() for value in cell)
+    reached = {
+        key: [value for value in cell if value is not None and not math.isnan(value)]
+        for key, cell in cells.items()
+    }
+    reached = {key: cell for key, cell in reached.items() if cell}
+    layouts = {layout for _, layout in reached}
+    policies = {policy for policy, _ in reached}
+    complete = {
+        (policy, layout): reached[policy, layout]
+        for policy in policies
+        for layout in layouts
+        if all((other, layout) in reached for other in policies)
+    }
+    summary = stratified_bootstrap(complete) if complete else Summary(math.nan, math.nan, math.nan, 0)
+    fraction = float((~np.isnan(pooled)).mean())
+    return Summary(summary.mean, summary.low, summary.high, summary.n, reached=fraction)
+
+
+def _percentile_interval(estimates: np.ndarray) -> tuple[float, float]:
+    tail = (1 - CONFIDENCE) / 2 * 100
+    low, high = np.nanpercentile(estimates, [tail, 100 - tail])
+    return float(low), float(high)
+
+
+def _resample_weights(rng: np.random.Generator, size: int) -> np.ndarray:
+    """(RESAMPLES, size): how often each of ``size`` items is drawn in each resample, over size."""
+    return _counts(rng.integers(0, size, (RESAMPLES, size)), size) / size
+
+
+def _counts(indices: np.ndarray, size: int) -> np.ndarray:
+    """(rows, size): how often each of ``0 .. size-1`` occurs in each row of ``indices``."""
+    rows = len(indices)
+    flat = (np.arange(rows)[:, None] * size + indices).ravel()
+    return np.bincount(flat, minlength=rows * size).reshape(rows, size).astype(float)
+
+
+def stratified_bootstrap(cells: Mapping[tuple[str, str], Sequence[float]]) -> Summary:
+    """Mean over training seeds of the mean over layouts of per-layout means, with a stratified
+    bootstrap interval.
+
+    ``cells`` maps (training seed or policy, layout) to the values of that cell's distinct
+    episodes; every seed must have every layout. Each resample draws the seeds with replacement,
+    the layouts with replacement (the same draw for every seed: layouts are crossed with seeds),
+    and the episodes of each cell with replacement. One cell is :func:`mean_ci`; a single unit in
+    all has no interval. ``n`` counts the distinct episodes.
+    """
+    policies = sorted({policy for policy, _ in cells})
+    layouts = sorted({layout for _, layout in cells})
+    missing = [(p, layout) for p in policies for layout in layouts if (p, layout) not in cells]
+    if missing:
+        raise ValueError(f"stratified_bootstrap: no episodes for (seed, layout) {missing[0]}")
+    values = {key: _numbers(cell) for key, cell in cells.items()}
+    if any(len(cell) == 0 for cell in values.values()):
+        raise ValueError("stratified_bootstrap: a (seed, layout) cell has no episodes")
+    if len(values) == 1:
+        return mean_ci(next(iter(values.values())))
+    means = np.array([[values[p, layout].mean() for layout in layouts] for p in policies])
+    mean = float(means.mean())
+    n = sum(len(cell) for cell in values.values())
+    rng = np.random.default_rng(BOOTSTRAP_SEED)
+    resampled = np.empty((RESAMPLES, len(policies), len(layouts)))
+    for i, p in enumerate(policies):
+        for j, layout in enumerate(layouts):
+            cell = values[p, layout]
+            resampled[:, i, j] = cell[rng.integers(0, len(cell), (RESAMPLES, len(cell)))].mean(axis=1)
+    seed_weights = _resample_weights(rng, len(policies))
+    layout_weights = _resample_weights(rng, len(layouts))
+    estimates = np.einsum("bp,bpl,bl->b", seed_weights, resampled, layout_weights)
+    return Summary(mean, *_percentile_interval(estimates), n)
+
+
+def performance_profile(scores, levels) -> np.ndarray:
+    """For each level τ, the fraction of ``scores`` (one per layout) above τ."""
+    scores = _numbers(scores)
+    return np.array([(scores > level).mean() for level in _numbers(levels)])
+
+
+def _improvement(x: np.ndarray, y: np.ndarray) -> float:
+    """P(an episode of x beats one of y), ties counting half: the Mann-Whitney U over n·m."""
+    difference = x[:, None] - y[None, :]
+    return float((difference > 0).mean() + 0.5 * (difference == 0).mean())
+
+
+def probability_of_improvement(
+    x_cells: Sequence[Sequence[float]], y_cells: Sequence[Sequence[float]]
+) -> Summary:
+    """P(X > Y) over layouts: ``x_cells[i]`` and ``y_cells[i]`` are the two baselines' episode
+    scores on layout i. The mean over layouts of the per-layout probability, with a percentile
+    bootstrap interval that resamples layouts (``n``: layouts)."""
+    if len(x_cells) != len(y_cells):
+        raise ValueError("probability_of_improvement: give both baselines' scores on the same layouts")
+    per_layout = _numbers(_improvement(_numbers(x), _numbers(y)) for x, y in zip(x_cells, y_cells))
+    return mean_ci(per_layout)
+
+
+def _resampled_ranks(values: np.ndarray, draws: np.ndarray) -> np.ndarray:
+    """``scipy.stats.rankdata(values[draws], axis=1)`` (ties get their average rank) from counts:
+    a drawn value's rank is the number of draws below it plus the mean position among its ties."""
+    distinct, index = np.unique(values, return_inverse=True)
+    counts = _counts(index[draws], len(distinct))
+    average = np.cumsum(counts, axis=1) - counts + (counts + 1) / 2
+    return np.take_along_axis(average, index[draws], axis=1)
+
+
+def spearman(x, y) -> Summary:
+    """Spearman's rank correlation of paired samples with a 95% percentile-bootstrap interval
+    over pairs (resamples where either side is constant have no correlation and are left out).
+    Fewer than three pairs, or a constant side, give NaN. Under :data:`MIN_CORRELATION_PAIRS`
+    pairs ρ has no interval: resampling a handful of pairs mostly redraws the same ranking (three
+    layouts in perfect order give [1, 1]), an interval that would claim a certainty it lacks."""
+    x, y = _numbers(x), _numbers(y)
+    if len(x) != len(y):
+        raise ValueError("spearman: x and y must be paired")
+    n = len(x)
+    if n < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
+        return Summary(math.nan, math.nan, math.nan, n)
+    from scipy import stats
+
+    rho = float(stats.spearmanr(x, y).statistic)
+    if n < MIN_CORRELATION_PAIRS:
+        return Summary(rho, math.nan, math.nan, n)
+    draws = np.random.default_rng(BOOTSTRAP_SEED).integers(0, n, (RESAMPLES, n))
+    ranks_x, ranks_y = _resampled_ranks(x, draws), _resampled_ranks(y, draws)
+    ranks_x -= ranks_x.mean(axis=1, keepdims=True)
+    ranks_y -= ranks_y.mean(axis=1, keepdims=True)
+    spread = np.sqrt((ranks_x**2).sum(axis=1) * (ranks_y**2).sum(axis=1))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        estimates = (ranks_x * ranks_y).sum(axis=1) / spread  # NaN where a resample is constant
+    return Summary(rho, *_percentile_interval(estimates), n)

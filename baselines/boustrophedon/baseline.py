@@ -38,7 +38,9 @@ class Boustrophedon(Baseline):
 
     def reset(self, context: EpisodeContext, observation: np.ndarray, info: dict) -> None:
         super().reset(context, observation, info)
-        self.legs = plan_layout(context.layout, context.protocol, context.agent, context.n_agents)
+        self.legs = plan_layout(  # from where the robot is: a suite episode starts anywhere in the start cell
+            context.layout, context.protocol, context.agent, context.n_agents, info["pose"][:2]
+        )
         robot = context.layout.robot
         self.follower = PathFollower(
             self.legs[0].waypoints if self.legs else np.zeros((1, 2)),

@@ -21,11 +21,15 @@ from .legs import Leg, held_back_goal, plan_region
 from .regions import cell_region, near_bounds, transit
 
 
-def plan_layout(layout: Layout, protocol: str = "sequential", agent: int = 0, n_agents: int = 1) -> list[Leg]:
-    """The whole plan for robot ``agent`` of a team of ``n_agents``, as legs in driving order."""
+def plan_layout(
+    layout: Layout, protocol: str = "sequential", agent: int = 0, n_agents: int = 1, start=None
+) -> list[Leg]:
+    """The whole plan for robot ``agent`` of a team of ``n_agents``, as legs in driving order. A
+    lone robot plans from ``start`` (x, y), the pose it finds (default: the layout's start); a
+    team from the team's start poses (:func:`~cabinbench.world.start_poses`)."""
     if n_agents > 1:
         return plan_team(layout, protocol, agent, n_agents)
-    start = start_poses(layout, n_agents)[agent, :2]
+    start = start_poses(layout, 1)[0, :2] if start is None else np.asarray(start, dtype=float)[:2]
     drivable = layout.centre_free  # already keeps the disc 1 cm off every wall
     if protocol == "open":
         return [Leg(plan_region(layout, drivable, start, goals=None).waypoints, 0, "sweep")]
