@@ -3,7 +3,7 @@
     python -m cabinbench.run --baseline NAME|pkg.mod:Class --layout NAME|FILE.yaml
         [--episodes N] [--seed S] [--agents K] [--protocol sequential|open]
         [--reward PRESET] [--max-steps N] [--config JSON] [--out DIR]
-        [--render FILE.png|FILE.gif] [--json] [--workers N]
+        [--render FILE.png|FILE.gif] [--json] [--workers N] [--submission FILE.json]
 
 Plays N independent episodes (episode i is seeded with S + i), appends one record per finished
 episode to ``DIR/<layout>__<baseline>__<protocol>__k<K>__seed<S>-<time>.jsonl`` (trajectories
@@ -13,6 +13,8 @@ the paths written. ``DIR`` defaults to the working folder ``runs/``: the committ
 ``results/runs`` are written by ``results/make_results.sh`` alone. ``--render`` draws the first
 episode: a PNG of its final state (trajectory over the map, covered area shaded: the seed's
 Fig. 5.11) or an animated GIF. ``--reward`` takes a preset of :mod:`cabinbench.rewards`.
+``--submission`` adds the run's records to a submission file for the leaderboard (created, or the
+layout's earlier episodes replaced; see :mod:`cabinbench.submissions`).
 
 Exit status: 0 done; 2 a user mistake, in one line on stderr, before any episode is played
 (unknown baseline or layout: the valid names are given; settings the baseline does not take;
@@ -50,6 +52,7 @@ from .metrics import METRICS, TEAM_METRICS
 from .records import RunWriter, run_header, run_path
 from .rewards import REWARD_PRESETS
 from .stats import Summary, summarize
+from .submissions import add_run, suite_of_layout
 from .world import PROTOCOLS, start_poses
 
 GIF_FRAMES = 100  # frames spread over the step limit; the GIF stops early if the episode does
@@ -105,6 +108,12 @@ def parse_args(argv: list[str] | None):
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     parser.add_argument(
         "--workers", type=positive_int, default=1, help="episodes played in parallel by a local process pool"
+    )
+    parser.add_argument(
+        "--submission",
+        metavar="FILE",
+        type=output_file(".json"),
+        help="add the records to this submission file (python -m cabinbench.leaderboard --add FILE)",
     )
     return parser.parse_args(argv)
 
@@ -191,6 +200,8 @@ def save_render(frames: list, path: str) -> None:
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     layout = load_layout(args.layout)
+    if args.submission:
+        suite_of_layout(layout.name)  # a layout outside every suite cannot be submitted: say so first
     try:
         start_poses(
             layout, args.agents
@@ -238,6 +249,10 @@ def main(argv: list[str] | None = None) -> int:
             first = next(result for result in finished if result.job.episode == 0)
             save_render(first.trajectory["frames"], args.render)
         report(args, layout.name, finished, writer)
+        if args.submission:
+            records = [json.loads(line) for line in writer.path.read_text(encoding="utf-8").splitlines()]
+            add_run(args.submission, records, args.baseline, records[0]["baseline_config"])
+            print(f"submission: {args.submission}", file=sys.stderr if args.json else sys.stdout)
     except KeyboardInterrupt:
         kept = writer.episodes_written()
         where = f"{writer.path} (trajectories: {writer.trajectory_path})" if kept else "nothing was written"
