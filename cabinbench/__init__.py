@@ -1,8 +1,10 @@
 """cabinbench: complete coverage path planning benchmark for cleaning robots in airline cabins.
 
 Importing the package registers the Gymnasium ids: one per built-in layout
-(``CabinBench/A320Cell-v0`` ...) and the generic ``CabinBench/Coverage-v0`` that takes
-``layout=`` (a name or a YAML path). A process that never imports cabinbench makes them as
+(``CabinBench/A320Cell-v0`` ...), the generic ``CabinBench/Coverage-v0`` that takes
+``layout=`` (a name, a suite layout name such as ``cabin-v1-test/0007``, or a YAML path), and
+``CabinBench/Suite-v0`` that takes ``suite=`` and plays a layout of it per reset. A process
+that never imports cabinbench makes them as
 ``gymnasium.make("cabinbench:CabinBench/A320Cell-v0")`` (Gymnasium imports the module first).
 """
 
@@ -27,6 +29,8 @@ def _register() -> None:
             gymnasium.register(gym_id(name), entry_point=ENTRY_POINT, kwargs={"layout": name})
     if "CabinBench/Coverage-v0" not in gymnasium.registry:
         gymnasium.register("CabinBench/Coverage-v0", entry_point=ENTRY_POINT)
+    if "CabinBench/Suite-v0" not in gymnasium.registry:
+        gymnasium.register("CabinBench/Suite-v0", entry_point="cabinbench.envs.suite_env:SuiteEnv")
 
 
 _register()

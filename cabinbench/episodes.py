@@ -121,7 +121,8 @@ def run_episode(
 
     ``seed`` seeds the env reset and every baseline instance (``context.seed``). The env is made
     with ``env_kwargs`` over the baseline's ``env_options`` (a learned policy's observation
-    settings). ``record`` is the env's ``episode_record``. ``trajectory`` holds full-resolution
+    settings). ``record`` is the env's ``episode_record`` and ``start``, the pose ``[x, y,
+    heading]`` the robot started from (a team: one per robot). ``trajectory`` holds full-resolution
     arrays: ``positions`` (steps + 1, K, 2) robot centres from ``info["pose"]``, ``coverage``
     (steps + 1,) from ``info["coverage"]``, ``pass_count`` (the final coverage raster, passes
     per pixel) and, when ``frame_every`` is set, ``frames``: :func:`~cabinbench.render.draw_frame`
@@ -146,6 +147,7 @@ def run_episode(
         baseline.reset(context, observations[agent], infos[agent])
 
     world = env.unwrapped.world
+    starts = [[float(v) for v in infos[agent]["pose"]] for agent in agents]
     positions = [[infos[agent]["pose"][:2] for agent in agents]]
     coverage = [infos[agents[0]]["coverage"]]
     frames = [draw_frame(world)] if frame_every else None
@@ -163,6 +165,7 @@ def run_episode(
         if frame_every and (steps % frame_every == 0 or not env.agents):
             frames.append(draw_frame(world, np.array(positions)))
     record = next(infos[agent]["episode_record"] for agent in agents if "episode_record" in infos[agent])
+    record = {**record, "start": starts[0] if n_agents == 1 else starts}
     trajectory = {
         "positions": np.array(positions, dtype=np.float64),
         "coverage": np.array(coverage, dtype=np.float64),

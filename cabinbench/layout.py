@@ -28,6 +28,7 @@ Rasters are indexed ``[iy, ix]``; pixel ``(iy, ix)`` has its centre at
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 import os
 from dataclasses import dataclass, field
@@ -49,6 +50,7 @@ RESOLUTION = 0.05  # metres per coverage-raster pixel, the seed's map resolution
 LAYOUT_PATH_VARIABLE = "CABINBENCH_LAYOUT_PATH"
 MARKER_RADIUS = 0.08  # goal cubes and exit landmarks, as the lidar sees them
 DEFAULT_SUCCESS_COVERAGE = 0.98  # "all coverable area covered", less the raster's rounding at edges
+WALL_TILE = 0.8  # metres: points per tile in Layout.distance_to_walls (about the gap between seat rows)
 
 
 @dataclass(frozen=True)
@@ -130,23 +132,36 @@ class Layout:
         xs, ys = self.pixel_centres()
         grid_x, grid_y = np.meshgrid(xs, ys)
         points = np.column_stack([grid_x.ravel(), grid_y.ravel()])
-        free = PolygonPath(self.boundary).contains_points(points)
-        for polygon in self.obstacles:
-            free &= ~PolygonPath(polygon).contains_points(points)
-        return free.reshape(grid_x.shape)
+        free = PolygonPath(self.boundary).contains_points(points).reshape(grid_x.shape)
+        for polygon in self.obstacles:  # each tested on the pixels of its bounding box only
+            (x0, y0), (x1, y1) = polygon.min(axis=0), polygon.max(axis=0)
+            cols = slice(np.searchsorted(xs, x0 - RESOLUTION), np.searchsorted(xs, x1 + RESOLUTION))
+            rows = slice(np.searchsorted(ys, y0 - RESOLUTION), np.searchsorted(ys, y1 + RESOLUTION))
+            box = np.column_stack([grid_x[rows, cols].ravel(), grid_y[rows, cols].ravel()])
+            free[rows, cols] &= ~PolygonPath(polygon).contains_points(box).reshape(grid_x[rows, cols].shape)
+        return free
 
     def distance_to_walls(self, points: np.ndarray) -> np.ndarray:
-        """Exact distance from each of ``points`` (N, 2) to the nearest solid edge."""
+        """Exact distance from each of ``points`` (N, 2) to the nearest solid edge.
+
+        Points are taken a tile at a time against only the walls that can be nearest to some
+        point of the tile (a wall farther from the tile's centre than the nearest wall plus the
+        tile's diameter cannot be), so the cost grows with the map's area, not area x walls.
+        """
         points = np.asarray(points, dtype=float).reshape(-1, 2)
         starts, ends = self.walls[:, :2], self.walls[:, 2:]
-        direction = ends - starts
-        length_sq = np.maximum((direction**2).sum(axis=1), 1e-12)
+        tiles = np.floor((points - points.min(axis=0)) / WALL_TILE).astype(np.int64)
+        tile_of = tiles[:, 0] * (tiles[:, 1].max() + 1) + tiles[:, 1]
+        order = np.argsort(tile_of, kind="stable")
+        bounds = np.flatnonzero(np.diff(tile_of[order])) + 1
         nearest = np.empty(len(points))
-        for begin in range(0, len(points), 4096):  # chunks keep the (points x walls) arrays small
-            chunk = points[begin : begin + 4096, None, :]
-            t = np.clip(((chunk - starts) * direction).sum(axis=2) / length_sq, 0.0, 1.0)
-            offset = starts + t[..., None] * direction - chunk
-            nearest[begin : begin + 4096] = np.sqrt((offset**2).sum(axis=2)).min(axis=1)
+        for members in np.split(order, bounds):
+            tile = points[members]
+            centre = (tile.min(axis=0) + tile.max(axis=0)) / 2
+            radius = float(np.hypot(*(tile.max(axis=0) - tile.min(axis=0)))) / 2
+            to_centre = _point_segment_distances(centre[None, :], starts, ends)[0]
+            near = to_centre <= to_centre.min() + 2 * radius + 1e-9
+            nearest[members] = _point_segment_distances(tile, starts[near], ends[near]).min(axis=1)
         return nearest
 
     @cached_property
@@ -221,6 +236,15 @@ class Layout:
         return occupied
 
 
+def _point_segment_distances(points: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """(N, S) exact distances from each point to each segment."""
+    px, py = points[:, :1], points[:, 1:]
+    dx, dy = ends[:, 0] - starts[:, 0], ends[:, 1] - starts[:, 1]
+    length_sq = np.maximum(dx**2 + dy**2, 1e-12)
+    t = np.clip(((px - starts[:, 0]) * dx + (py - starts[:, 1]) * dy) / length_sq, 0.0, 1.0)
+    return np.sqrt((starts[:, 0] + t * dx - px) ** 2 + (starts[:, 1] + t * dy - py) ** 2)
+
+
 # --------------------------------------------------------------------------------- loading
 LAYOUT_KINDS: dict[str, LayoutKind] = {kind.name: kind for kind in (CABIN, GRID, POLYGONS)}
 COMMON_KEYS = {
@@ -258,27 +282,32 @@ def available_layouts() -> dict[str, Path]:
 
 
 def load_layout(name_or_path: str | os.PathLike) -> Layout:
-    """Load a layout by registered name or by path to a YAML file."""
+    """Load a layout by registered name, by suite layout name (``cabin-v1-test/0007``, see
+    :mod:`cabinbench.suites`) or by path to a YAML file."""
     candidate = Path(name_or_path)
     if candidate.suffix in (".yaml", ".yml") or candidate.exists():
         return read_layout(candidate)
     layouts = available_layouts()
-    if str(name_or_path) not in layouts:
-        raise LayoutError(
-            str(name_or_path),
-            "<name>",
-            "unknown layout",
-            f"use one of {', '.join(layouts)}, or a path to a .yaml file",
-        )
-    return read_layout(layouts[str(name_or_path)])
+    if str(name_or_path) in layouts:
+        return read_layout(layouts[str(name_or_path)])
+    if "/" in str(name_or_path):
+        from .suites import suite_layout  # the suites build on this module
+
+        return suite_layout(str(name_or_path))
+    raise LayoutError(
+        str(name_or_path),
+        "<name>",
+        "unknown layout",
+        f"use one of {', '.join(layouts)}, a suite layout (cabin-v1-test/0007) or a .yaml path",
+    )
 
 
-def read_layout(path: Path) -> Layout:
-    """Load the layout file at ``path``; a file that cannot be read is a :class:`LayoutError` too."""
+def read_text(path: Path) -> str:
+    """The text of a layout, family or suite file; one that cannot be read is a :class:`LayoutError`."""
     if path.is_dir():
         raise LayoutError(str(path), "<file>", "is a folder", "give a layout file, e.g. a .yaml inside it")
     try:
-        text = path.read_text(encoding="utf-8")
+        return path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise LayoutError(
             str(path), "<file>", "no such file", "give an existing .yaml path or a layout name"
@@ -292,26 +321,37 @@ def read_layout(path: Path) -> Layout:
         raise LayoutError(
             str(path), "<file>", f"cannot be read ({error.strerror})", "check the file"
         ) from None
-    return parse_layout(text, source=str(path), default_name=path.stem)
 
 
-def parse_layout(text: str, source: str = "<string>", default_name: str = "layout") -> Layout:
-    """Validate layout YAML text and build its geometry."""
+def parse_yaml(text: str, source: str) -> dict:
+    """YAML text that must hold a mapping of fields (safe loader only)."""
     try:
         spec = yaml.safe_load(text)
     except yaml.YAMLError as error:
         raise LayoutError(
             source, "<file>", f"not valid YAML ({error})".replace("\n", " "), "fix the YAML syntax"
         ) from None
+    if not isinstance(spec, dict):
+        raise LayoutError(source, "<file>", "the file is not a mapping of fields", "write 'key: value' lines")
+    return spec
+
+
+def read_layout(path: Path) -> Layout:
+    """Load the layout file at ``path``; a file that cannot be read is a :class:`LayoutError` too."""
+    return parse_layout(read_text(path), source=str(path), default_name=path.stem)
+
+
+def parse_layout(text: str, source: str = "<string>", default_name: str = "layout") -> Layout:
+    """Validate layout YAML text and build its geometry; its ``content_hash`` is the text's."""
+    return build_layout(
+        parse_yaml(text, source), source, default_name, hashlib.sha256(text.encode()).hexdigest()[:16]
+    )
+
+
+def build_layout(spec: dict, source: str, default_name: str, content_hash: str) -> Layout:
+    """Validate a parsed layout spec (the fields of a layout file) and build its geometry."""
     check = FieldChecker(source)
     kinds = ", ".join(LAYOUT_KINDS)
-    if not isinstance(spec, dict):
-        raise LayoutError(
-            source,
-            "<file>",
-            "the file is not a mapping of fields",
-            f"write 'kind: <one of {kinds}>' and its block",
-        )
     check.known_keys(spec, COMMON_KEYS | set(LAYOUT_KINDS), "")
     kind_name = spec.get("kind")
     if not isinstance(kind_name, str) or kind_name not in LAYOUT_KINDS:
@@ -341,7 +381,7 @@ def parse_layout(text: str, source: str = "<string>", default_name: str = "layou
         description=check.string(spec.get("description", ""), "description"),
         source=check.string(spec.get("source", ""), "source"),
         path=source,
-        content_hash=hashlib.sha256(text.encode()).hexdigest()[:16],
+        content_hash=content_hash,
         boundary=boundary,
         obstacles=obstacles,
         cells=cells,
@@ -359,6 +399,26 @@ def parse_layout(text: str, source: str = "<string>", default_name: str = "layou
     layout.passages = _build_passages(layout)
     _validate_reachability(check, layout)
     return layout
+
+
+def geometry_hash(layout: Layout) -> str:
+    """SHA-256 (16 hex) of a layout's canonical geometry, to the millimetre: boundary, obstacles
+    (in sorted order), cells and their goals, start, robot, step limit and success criterion. Two
+    layouts that are the same map share it whatever their names, files or the parameters that
+    drew them."""
+
+    def rounded(array) -> list:
+        return np.round(np.asarray(array, dtype=float), 3).tolist()
+
+    canonical = {
+        "boundary": rounded(layout.boundary),
+        "obstacles": sorted(rounded(polygon) for polygon in layout.obstacles),
+        "cells": [[rounded(cell.rect), rounded(cell.goals)] for cell in layout.cells],
+        "start": rounded(layout.start),
+        "robot": rounded([layout.robot.radius, layout.robot.max_speed, layout.robot.max_turn_rate]),
+        "limits": [layout.max_steps, layout.success_coverage, layout.cleared_cells],
+    }
+    return hashlib.sha256(json.dumps(canonical, separators=(",", ":")).encode()).hexdigest()[:16]
 
 
 def _cleared_cells(check: FieldChecker, value, cell_count: int) -> int:

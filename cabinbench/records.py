@@ -6,12 +6,14 @@ metric of :mod:`cabinbench.metrics` (``METRICS``, plus ``TEAM_METRICS`` for K > 
 
 - ``benchmark_version``: ``cabinbench.__version__``;
 - ``git_commit``: ``git rev-parse HEAD`` of the source tree, or null when that fails;
-- ``layout``, ``layout_hash`` (:attr:`Layout.content_hash`: the YAML text's SHA-256, 16 hex),
-  ``layout_complexity`` (``{"normalized": ..., "total": ...}``, seed §4.1);
+- ``layout``, ``layout_hash`` (:attr:`Layout.content_hash`: the YAML text's SHA-256, 16 hex; for
+  a generated layout its geometry's), ``layout_complexity`` (``{"normalized": ..., "total": ...}``,
+  seed §4.1), ``suite`` (the suite the layout was played in, :mod:`cabinbench.suites`, or null);
 - ``baseline`` (the name or ``package.module:Class`` given), ``baseline_config`` (its settings);
 - ``protocol``, ``n_agents``;
 - ``seed`` (the run's base seed) and ``episode`` (index in the run): the episode's own seed is
   ``seed + episode`` (see :mod:`cabinbench.episodes`);
+- ``start``: the pose ``[x, y, heading]`` the episode started from (a team: one per robot);
 - ``env_config`` (reward preset, ``max_steps`` and any other env setting);
 - ``timestamp``: when the episode finished, ISO 8601 UTC.
 
@@ -63,12 +65,14 @@ RECORD_FIELDS = (
     "layout",
     "layout_hash",
     "layout_complexity",
+    "suite",
     "baseline",
     "baseline_config",
     "protocol",
     "n_agents",
     "seed",
     "episode",
+    "start",
     "env_config",
     "timestamp",
 )
@@ -107,8 +111,10 @@ def run_header(
     n_agents: int,
     seed: int,
     env_config: dict,
+    suite: str | None = None,
 ) -> dict:
-    """The fields shared by every record of a run (all of RECORD_FIELDS but ``episode`` and ``timestamp``)."""
+    """The fields shared by every record of a run (all of RECORD_FIELDS but ``episode``, ``start``
+    and ``timestamp``)."""
     complexity = layout_complexity(layout)
     return {
         "benchmark_version": __version__,
@@ -119,6 +125,7 @@ def run_header(
             "normalized": round(complexity.normalized, 6),
             "total": round(complexity.total, 6),
         },
+        "suite": suite,
         "baseline": baseline,
         "baseline_config": baseline_config,
         "protocol": protocol,
@@ -195,14 +202,17 @@ class RunWriter:
         return trajectory_path(self.path)
 
     def write(self, episode: int, metrics: dict, trajectory: dict) -> dict:
-        """Save one finished episode; return its record. The trajectory goes first, so that every
-        record line has its trajectory even if the run is killed in between."""
+        """Save one finished episode (``metrics``: the env's record plus its ``start``); return its
+        record. The trajectory goes first, so that every record line has its trajectory even if
+        the run is killed in between."""
         for name, array in downsample(trajectory).items():
             self.trajectories[f"episode{episode}_{name}"] = array
         self._save_trajectories()
         timestamp = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-        record = {**self.header, "episode": episode, "timestamp": timestamp}
-        record = {name: record[name] for name in RECORD_FIELDS} | metrics
+        record = {**self.header, **metrics, "episode": episode, "timestamp": timestamp}
+        record = {name: record[name] for name in RECORD_FIELDS} | {
+            name: value for name, value in metrics.items() if name not in RECORD_FIELDS
+        }
         with open(self.path, "a", encoding="utf-8") as file:
             file.write(json.dumps(record, default=_jsonable) + "\n")
             file.flush()

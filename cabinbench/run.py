@@ -1,7 +1,8 @@
 """Evaluate a baseline on a layout: ``python -m cabinbench.run --baseline NAME --layout NAME``.
 
-    python -m cabinbench.run --baseline NAME|pkg.mod:Class --layout NAME|FILE.yaml
-        [--episodes N] [--seed S] [--agents K] [--protocol sequential|open]
+    python -m cabinbench.run --baseline NAME|pkg.mod:Class (--layout NAME|FILE.yaml [--episodes N]
+        | --suite SUITE [--layouts K] [--episodes-per-layout N]) [--start random|fixed]
+        [--seed S] [--agents K] [--protocol sequential|open]
         [--reward PRESET] [--max-steps N] [--config JSON] [--out DIR]
         [--render FILE.png|FILE.gif] [--json] [--workers N] [--submission FILE.json]
 
@@ -9,12 +10,18 @@ Plays N independent episodes (episode i is seeded with S + i), appends one recor
 episode to ``DIR/<layout>__<baseline>__<protocol>__k<K>__seed<S>-<time>.jsonl`` (trajectories
 in the sibling ``.npz``; format in :mod:`cabinbench.records`) and prints a table of per-metric
 means with 95% bootstrap intervals, or with ``--json`` one JSON object with the same numbers and
-the paths written. ``DIR`` defaults to the working folder ``runs/``: the committed
+the paths written. ``--suite`` plays the protocol of :mod:`cabinbench.suites`: N episodes on
+each of the suite's first K layouts (default all), each layout's records in a file of its own,
+with the field ``suite`` set; the layout at position p plays the seeds from ``S + p * N`` on.
+Its episodes start from a pose drawn from the episode's seed (``--start random``, the default
+for generated suites; ``classic`` and ``--layout`` keep the layout's own start, ``--start
+fixed``), and the step limit is each layout's (scaled with its coverable area), recorded in
+``env_config``. ``DIR`` defaults to the working folder ``runs/``: the committed
 ``results/runs`` are written by ``results/make_results.sh`` alone. ``--render`` draws the first
 episode: a PNG of its final state (trajectory over the map, covered area shaded: the seed's
 Fig. 5.11) or an animated GIF. ``--reward`` takes a preset of :mod:`cabinbench.rewards`.
-``--submission`` adds the run's records to a submission file for the leaderboard (created, or the
-layout's earlier episodes replaced; see :mod:`cabinbench.submissions`).
+``--submission FILE`` (with ``--suite``) also writes the run's records as one submission file for
+the leaderboard (:mod:`cabinbench.submissions`).
 
 Exit status: 0 done; 2 a user mistake, in one line on stderr, before any episode is played
 (unknown baseline or layout: the valid names are given; settings the baseline does not take;
@@ -52,7 +59,8 @@ from .metrics import METRICS, TEAM_METRICS
 from .records import RunWriter, run_header, run_path
 from .rewards import REWARD_PRESETS
 from .stats import Summary, summarize
-from .submissions import add_run, suite_of_layout
+from .submissions import write_submission
+from .suites import get_suite
 from .world import PROTOCOLS, start_poses
 
 GIF_FRAMES = 100  # frames spread over the step limit; the GIF stops early if the episode does
@@ -70,10 +78,20 @@ def parse_args(argv: list[str] | None):
         required=True,
         help="a registered baseline (entry-point group cabinbench.baselines), or package.module:Class",
     )
+    where = parser.add_mutually_exclusive_group(required=True)
+    where.add_argument("--layout", help="a layout name (python -m cabinbench.layouts) or a YAML file")
+    where.add_argument("--suite", help="every layout of a suite (python -m cabinbench.suites)")
+    parser.add_argument("--episodes", type=positive_int, help="with --layout: episodes to play (default 5)")
+    parser.add_argument("--layouts", type=positive_int, help="with --suite: only its first K layouts")
     parser.add_argument(
-        "--layout", required=True, help="a layout name (python -m cabinbench.layouts) or a YAML file"
+        "--episodes-per-layout", type=positive_int, help="with --suite: episodes on each layout (default 1)"
     )
-    parser.add_argument("--episodes", type=positive_int, default=5, help="episodes to play (default 5)")
+    parser.add_argument(
+        "--start",
+        choices=("random", "fixed"),
+        help="a start pose drawn from each episode's seed, or the layout's own (default: random for "
+        "generated suites, fixed otherwise)",
+    )
     parser.add_argument(
         "--seed", type=non_negative_int, default=0, help="base seed; episode i uses seed + i (default 0)"
     )
@@ -113,7 +131,7 @@ def parse_args(argv: list[str] | None):
         "--submission",
         metavar="FILE",
         type=output_file(".json"),
-        help="add the records to this submission file (python -m cabinbench.leaderboard --add FILE)",
+        help="with --suite: write the records as a submission (python -m cabinbench.leaderboard --add FILE)",
     )
     return parser.parse_args(argv)
 
@@ -144,13 +162,13 @@ def check_settings(spec: str, config: dict) -> None:
         raise UsageError(f"--config: baseline {spec!r} does not take {', '.join(unknown)}; it takes {takes}")
 
 
-def collect(results, writer: RunWriter, total: int) -> list[EpisodeResult]:
-    """Write each finished episode as it comes; return them."""
+def collect(results, writers: dict[str, RunWriter], total: int) -> list[EpisodeResult]:
+    """Write each finished episode as it comes, to its layout's writer; return them."""
     finished = []
     try:
         with tqdm(total=total, unit="episode", file=sys.stderr, dynamic_ncols=True) as progress:
             for result in results:
-                writer.write(result.job.episode, result.record, result.trajectory)
+                writers[result.job.layout].write(result.job.episode, result.record, result.trajectory)
                 finished.append(result)
                 progress.set_postfix(coverage=f"{result.record['coverage']:.3f}")
                 progress.update()
@@ -196,101 +214,155 @@ def save_render(frames: list, path: str) -> None:
     images[0].save(path, save_all=True, append_images=images[1:], duration=durations, loop=0)
 
 
+def plan(args) -> tuple[str | None, list[str], int, bool]:
+    """(suite, layout names, episodes per layout, random start) of the run the arguments ask for."""
+    if args.suite is None:
+        for name in ("layouts", "episodes_per_layout"):
+            if getattr(args, name) is not None:
+                raise UsageError(
+                    f"--{name.replace('_', '-')} goes with --suite; with --layout use --episodes"
+                )
+        return None, [args.layout], args.episodes or 5, args.start == "random"
+    if args.episodes is not None:
+        raise UsageError("--episodes goes with --layout; with --suite use --episodes-per-layout")
+    suite = get_suite(args.suite)
+    start = args.start or ("fixed" if suite.builtin else "random")
+    return (
+        suite.name,
+        list(suite.layout_names[: args.layouts]),
+        args.episodes_per_layout or 1,
+        start == "random",
+    )
+
+
 @user_errors
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    layout = load_layout(args.layout)
-    if args.submission:
-        suite_of_layout(layout.name)  # a layout outside every suite cannot be submitted: say so first
-    try:
-        start_poses(
-            layout, args.agents
-        )  # a team too large for the start cell: refuse before writing anything
-    except ValueError as error:
-        raise UsageError(f"--agents: {error}") from None
+    suite, names, episodes, random_start = plan(args)
+    if args.submission and not suite:
+        raise UsageError("--submission goes with --suite: a submission covers every layout of a suite")
+    layouts = {name: load_layout(name) for name in names}  # every layout checked before any episode
+    for layout in layouts.values():
+        try:
+            start_poses(layout, args.agents)  # a team too large for the start cell: refuse before writing
+        except ValueError as error:
+            raise UsageError(f"--agents: {error}") from None
     check_settings(args.baseline, args.config)
     try:
         baseline = load_baseline(args.baseline, **args.config)
     except ValueError as error:  # a file the class cannot use (a BaselineError is a user error already)
         raise UsageError(f"--baseline {args.baseline}: {error}") from None
 
-    max_steps = args.max_steps or layout.max_steps
-    env_config = {**baseline.env_options, "reward": args.reward, "max_steps": max_steps}
-    header = run_header(
-        layout,
-        args.baseline,
-        getattr(baseline, "config", args.config),
-        args.protocol,
-        args.agents,
-        args.seed,
-        env_config,
-    )
-    frame_every = None  # frames of the first episode: a PNG needs only the last, a GIF about GIF_FRAMES
-    if args.render:
-        frame_every = max(1, max_steps // GIF_FRAMES) if args.render.suffix.lower() == ".gif" else max_steps
-    jobs = [
-        EpisodeJob(
+    writers: dict[str, RunWriter] = {}
+    jobs = []
+    for position, (name, layout) in enumerate(layouts.items()):
+        seed = args.seed + position * episodes  # every episode of a suite run has a seed of its own
+        max_steps = args.max_steps or layout.max_steps
+        env_config = {**baseline.env_options, "reward": args.reward, "max_steps": max_steps}
+        if random_start:
+            env_config["random_start"] = True
+        header = run_header(
+            layout,
             args.baseline,
-            args.layout,
-            args.seed,
-            episode,
+            getattr(baseline, "config", args.config),
             args.protocol,
             args.agents,
+            seed,
             env_config,
-            args.config,
-            frame_every if episode == 0 else None,
+            suite,
         )
-        for episode in range(args.episodes)
-    ]
-    writer = RunWriter(run_path(args.out, header), header, layout)
+        frame_every = None  # frames of the first episode: a PNG needs only the last, a GIF about GIF_FRAMES
+        if args.render and not jobs:
+            frame_every = (
+                max(1, max_steps // GIF_FRAMES) if args.render.suffix.lower() == ".gif" else max_steps
+            )
+        jobs += [
+            EpisodeJob(
+                args.baseline,
+                name,
+                seed,
+                episode,
+                args.protocol,
+                args.agents,
+                env_config,
+                args.config,
+                frame_every if episode == 0 else None,
+            )
+            for episode in range(episodes)
+        ]
+        writers[name] = RunWriter(run_path(args.out, header), header, layout)
     try:
-        finished = collect(run_jobs(jobs, args.workers), writer, len(jobs))
+        finished = collect(run_jobs(jobs, args.workers), writers, len(jobs))
         if args.render:
-            first = next(result for result in finished if result.job.episode == 0)
+            first = next(result for result in finished if result.job == jobs[0])
             save_render(first.trajectory["frames"], args.render)
-        report(args, layout.name, finished, writer)
+        report(args, suite or layouts[names[0]].name, finished, list(writers.values()))
         if args.submission:
-            records = [json.loads(line) for line in writer.path.read_text(encoding="utf-8").splitlines()]
-            add_run(args.submission, records, args.baseline, records[0]["baseline_config"])
+            records = [
+                json.loads(line)
+                for writer in writers.values()
+                for line in writer.path.read_text(encoding="utf-8").splitlines()
+            ]
+            write_submission(args.submission, records, args.baseline, get_suite(suite))
             print(f"submission: {args.submission}", file=sys.stderr if args.json else sys.stdout)
     except KeyboardInterrupt:
-        kept = writer.episodes_written()
-        where = f"{writer.path} (trajectories: {writer.trajectory_path})" if kept else "nothing was written"
-        print(f"interrupted: {kept} finished episode(s) kept; {where}", file=sys.stderr)
+        kept = [writer for writer in writers.values() if writer.episodes_written()]
+        count = sum(writer.episodes_written() for writer in kept)
+        where = ", ".join(str(writer.path) for writer in kept[:3]) + (" ..." if len(kept) > 3 else "")
+        print(
+            f"interrupted: {count} finished episode(s) kept; {where or 'nothing was written'}"
+            + (" (trajectories beside them, .npz)" if kept else ""),
+            file=sys.stderr,
+        )
         return EXIT_INTERRUPTED
     finally:
-        writer.remove_if_empty()  # a run stopped before its first episode leaves no file
+        for writer in writers.values():
+            writer.remove_if_empty()  # a run stopped before its first episode leaves no file
     return 0
 
 
-def report(args, layout_name: str, finished: list[EpisodeResult], writer: RunWriter) -> None:
-    """The summary on stdout: a table, or with ``--json`` one JSON object."""
-    records = [result.record for result in sorted(finished, key=lambda result: result.job.episode)]
+def report(args, name: str, finished: list[EpisodeResult], writers: list[RunWriter]) -> None:
+    """The summary on stdout: a table, or with ``--json`` one JSON object (with ``--suite``,
+    ``records`` and ``trajectories`` list one file per layout)."""
+    order = {job_layout: index for index, job_layout in enumerate(w.header["layout"] for w in writers)}
+    finished = sorted(
+        finished, key=lambda result: (order.get(result.record.get("layout"), 0), result.job.episode)
+    )
+    records = [result.record for result in finished]
     summaries = summarize_run(records)
     render = str(args.render) if args.render else None
+    paths = [str(writer.path) for writer in writers]
+    trajectories = [str(writer.trajectory_path) for writer in writers]
     if args.json:
         print(
             json.dumps(
                 {
                     "baseline": args.baseline,
-                    "layout": layout_name,
+                    "layout": None if args.suite else name,
+                    "suite": args.suite and name,
+                    "layouts": len(writers),
                     "protocol": args.protocol,
                     "n_agents": args.agents,
                     "episodes": len(records),
-                    "records": str(writer.path),
-                    "trajectories": str(writer.trajectory_path),
+                    "records": paths if args.suite else paths[0],
+                    "trajectories": trajectories if args.suite else trajectories[0],
                     "render": render,
-                    "metrics": {name: summary.as_dict() for name, summary in summaries.items()},
+                    "metrics": {metric: summary.as_dict() for metric, summary in summaries.items()},
                 }
             )
         )
         return
+    where = f"suite {name}, {len(writers)} layouts" if args.suite else name
+    seeds = [result.job.episode_seed for result in finished]
     title = (
-        f"{args.baseline} on {layout_name} ({args.protocol}, K={args.agents}): {len(records)} episodes, "
-        f"seeds {args.seed}..{args.seed + len(records) - 1}"
+        f"{args.baseline} on {where} ({args.protocol}, K={args.agents}): {len(records)} episodes, "
+        f"seeds {min(seeds)}..{max(seeds)}"
     )
     print(format_table(summaries, title))
-    print(f"\nrecords: {writer.path}\ntrajectories: {writer.trajectory_path}")
+    if args.suite:
+        print(f"\nrecords: {len(paths)} files in {Path(paths[0]).parent} (trajectories beside them, .npz)")
+    else:
+        print(f"\nrecords: {paths[0]}\ntrajectories: {trajectories[0]}")
     if render:
         print(f"render: {render}")
 

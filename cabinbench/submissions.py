@@ -1,10 +1,9 @@
 """Submissions: a result sent in by someone else, checked, filed and verified by replaying it.
 
-A submission is one self-contained JSON file (``run ... --submission FILE`` writes it; each run on
-one layout adds or replaces that layout's episodes)::
+A submission is one self-contained JSON file, written by ``run --suite S ... --submission FILE``::
 
     {"format": "cabinbench-submission/1",
-     "suite": {"name": "classic", "version": "1", "layout_hashes": {layout: hash, ...}},
+     "suite": {"name": "classic", "version": 1, "layout_hashes": {layout: hash, ...}},
      "baseline": {"name": ..., "config": {...}, "entry_point": "pkg.module:Class" or null},
      "protocol": "sequential", "n_agents": 1,
      "packages": {"python": ..., "cabinbench": ..., "numpy": ..., ...},
@@ -15,9 +14,8 @@ The checksum is the SHA-256 of the canonical JSON (sorted keys, no spaces) of ev
 ``leaderboard --add`` checks it against the suite as shipped (:func:`check`), then files it in
 ``results/submissions/``; ``leaderboard --verify`` replays some of its episodes (:func:`verify`).
 
-The ``classic`` suite here is the leaderboard's four cabin layouts, each played with episode seeds
-0..4 (``run``'s defaults, ``--seed 0 --episodes 5``); suites of the benchmark protocol
-(``cabinbench.suites``) take its place when they land.
+The protocol (:mod:`cabinbench.suites`): every layout of the suite, the same number N of episodes
+on each, from base seed 0, so the layout at position p plays the episode seeds p*N ... p*N+N-1.
 """
 
 from __future__ import annotations
@@ -26,7 +24,6 @@ import hashlib
 import json
 import math
 import platform
-from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, entry_points, version
 from pathlib import Path
 
@@ -35,9 +32,10 @@ import numpy as np
 from . import __version__
 from .agents import ENTRY_POINT_GROUP, registered_baselines
 from .cli import UsageError
-from .layout import load_layout
+from .layout import LayoutError, load_layout
 from .metrics import METRICS, TEAM_METRICS
 from .records import RECORD_FIELDS, safe_name
+from .suites import Suite, get_suite
 
 FORMAT = "cabinbench-submission/1"
 PACKAGES = ("numpy", "scipy", "pymunk", "gymnasium", "pettingzoo")  # what an episode's numbers depend on
@@ -47,41 +45,6 @@ NOT_REPLAYED = ("wall_time",)  # real seconds: the speed of the machine, not the
 
 class SubmissionError(UsageError):
     """A submission that cannot be written, filed or verified; one line naming what is wrong (exit 2)."""
-
-
-@dataclass(frozen=True)
-class Suite:
-    """The layouts and episode seeds a submission must cover (the shape of ``cabinbench.suites.Suite``)."""
-
-    name: str
-    version: str
-    layout_names: tuple[str, ...]
-    episode_seeds: tuple[int, ...]
-
-    def content_hashes(self) -> dict[str, str]:
-        return {name: load_layout(name).content_hash for name in self.layout_names}
-
-
-SUITES = {
-    "classic": Suite(
-        "classic", "1", ("a320_cell", "shape_changed", "b777_3col", "full_cabin"), tuple(range(5))
-    )
-}
-
-
-def get_suite(name: str) -> Suite:
-    if name not in SUITES:
-        raise SubmissionError(f"unknown suite {name!r}; submissions are taken for {', '.join(SUITES)}")
-    return SUITES[name]
-
-
-def suite_of_layout(layout: str) -> Suite:
-    """The suite a ``--layout`` run belongs to (a submission is made of suite layouts only)."""
-    for suite in SUITES.values():
-        if layout in suite.layout_names:
-            return suite
-    names = ", ".join(name for suite in SUITES.values() for name in suite.layout_names)
-    raise SubmissionError(f"--submission: layout {layout!r} is in no suite; submit runs on {names}")
 
 
 def checksum(body: dict) -> str:
@@ -111,34 +74,18 @@ def package_versions(extra: dict) -> dict:
     return {**versions, **extra}
 
 
-def add_run(path: Path, records: list[dict], spec: str, config: dict) -> dict:
-    """Add one run's records (one layout) to the submission at ``path``, creating it, replacing the
-    layout's earlier episodes; return the submission written."""
+def write_submission(path: Path, records: list[dict], spec: str, suite: Suite) -> dict:
+    """Write the records of a ``run --suite`` as a submission at ``path``; return its content."""
     first = records[0]
-    suite = suite_of_layout(first["layout"])
     point, dist = entry_point(spec)
-    fields = {
-        "baseline": {"name": spec, "config": config, "entry_point": point},
-        "protocol": first["protocol"],
-        "n_agents": first["n_agents"],
-    }
-    if path.exists():
-        body = read(path)
-        for name, value in fields.items():
-            if body.get(name) != value:
-                raise SubmissionError(
-                    f"--submission: {path} holds {name} {body.get(name)!r}, this run {value!r}; "
-                    "give a new file for a different entry"
-                )
-        kept = [record for record in body["records"] if record["layout"] != first["layout"]]
-    else:
-        kept = []
     body = {
         "format": FORMAT,
         "suite": {"name": suite.name, "version": suite.version, "layout_hashes": suite.content_hashes()},
-        **fields,
+        "baseline": {"name": spec, "config": first["baseline_config"], "entry_point": point},
+        "protocol": first["protocol"],
+        "n_agents": first["n_agents"],
         "packages": package_versions(dist),
-        "records": sorted(kept + records, key=lambda r: (r["layout"], r["seed"] + r["episode"])),
+        "records": records,
     }
     body["checksum"] = checksum(body)
     path.write_text(json.dumps(body, indent=1, allow_nan=False) + "\n", encoding="utf-8")
@@ -205,8 +152,11 @@ def check(body: dict, path: Path) -> Suite:
     for name in ("suite", "baseline", "protocol", "n_agents", "packages", "records"):
         if name not in body:
             raise SubmissionError(f"{path}: field {name!r} missing")
-    suite = get_suite(body["suite"].get("name"))
-    if str(body["suite"].get("version")) != suite.version:
+    try:
+        suite = get_suite(str(body["suite"].get("name")))
+    except LayoutError as error:
+        raise SubmissionError(f"{path}: {error}") from None
+    if body["suite"].get("version") != suite.version:
         raise SubmissionError(
             f"{path}: made for suite {suite.name} version {body['suite'].get('version')}; "
             f"this cabinbench ships version {suite.version}"
@@ -225,6 +175,10 @@ def check(body: dict, path: Path) -> Suite:
     for index, record in enumerate(records):
         check_record(index, record, body)
         layout = record["layout"]
+        if record["suite"] != suite.name:
+            raise SubmissionError(
+                f"record {index}: suite {record['suite']!r}, not the submission's {suite.name}"
+            )
         if layout not in shipped:
             raise SubmissionError(f"record {index}: layout {layout!r} is not in suite {suite.name}")
         if record["layout_hash"] != shipped[layout]:
@@ -233,7 +187,8 @@ def check(body: dict, path: Path) -> Suite:
                 f"{shipped[layout]}; run it again on the shipped layout"
             )
         seeds.setdefault(layout, []).append(record["seed"] + record["episode"])
-    for layout in suite.layout_names:
+    per_layout = len(seeds.get(suite.layout_names[0], []))
+    for position, layout in enumerate(suite.layout_names):
         found = seeds.get(layout, [])
         if not found:
             raise SubmissionError(f"{path}: layout {layout} of suite {suite.name} has no episodes")
@@ -242,11 +197,13 @@ def check(body: dict, path: Path) -> Suite:
             raise SubmissionError(
                 f"{path}: layout {layout}: episode seed(s) {repeated} recorded more than once"
             )
-        if sorted(found) != list(suite.episode_seeds):
-            missing = sorted(set(suite.episode_seeds) - set(found))
-            extra = sorted(set(found) - set(suite.episode_seeds))
+        protocol = list(range(position * per_layout, (position + 1) * per_layout))
+        if sorted(found) != protocol:
+            missing = sorted(set(protocol) - set(found))
+            extra = sorted(set(found) - set(protocol))
             raise SubmissionError(
-                f"{path}: layout {layout}: the protocol's episode seeds are {list(suite.episode_seeds)}; "
+                f"{path}: layout {layout}: the protocol's episode seeds are {protocol} "
+                f"(run --suite {suite.name} --seed 0 --episodes-per-layout {per_layout}); "
                 f"missing {missing}, not in the protocol {extra}"
             )
     return suite

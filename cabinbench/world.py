@@ -25,7 +25,16 @@ from .observation import observation_layout, observation_size, write_observation
 from .physics import TIME_STEP, Physics
 from .protocol import PROTOCOLS, CellProtocol
 
-__all__ = ["PROTOCOLS", "TIME_STEP", "RobotEvents", "StepEvents", "World", "start_cell_spots", "start_poses"]
+__all__ = [
+    "PROTOCOLS",
+    "TIME_STEP",
+    "RobotEvents",
+    "StepEvents",
+    "World",
+    "random_start_poses",
+    "start_cell_spots",
+    "start_poses",
+]
 
 
 @dataclass(slots=True)
@@ -275,3 +284,22 @@ def start_poses(layout: Layout, n_robots: int) -> np.ndarray:
         f"layout '{layout.name}' has room for only {len(poses)} robots in its start cell, "
         f"{n_robots} were asked for: use fewer agents or a larger layout"
     )
+
+
+def random_start_poses(
+    layout: Layout, spots: np.ndarray, n_robots: int, rng: np.random.Generator
+) -> np.ndarray:
+    """``n_robots`` start poses drawn with ``rng`` from ``spots`` (:func:`start_cell_spots`), each
+    with a uniform heading: the first at a random spot, the others at spots taken in a random
+    order that keep a robot diameter plus 5 cm from those already placed."""
+    x, y = spots[rng.integers(len(spots))]
+    poses = [(float(x), float(y), float(rng.uniform(-math.pi, math.pi)))]
+    spacing = layout.robot.tool_width + 0.05
+    for x, y in spots[rng.permutation(len(spots))] if n_robots > 1 else ():
+        if all(math.hypot(x - p[0], y - p[1]) >= spacing for p in poses):
+            poses.append((float(x), float(y), float(rng.uniform(-math.pi, math.pi))))
+            if len(poses) == n_robots:
+                break
+    if len(poses) < n_robots:
+        raise ValueError(f"layout '{layout.name}' has room for only {len(poses)} robots in its start cell")
+    return np.array(poses)

@@ -57,6 +57,21 @@ for baseline in $learned_baselines; do
   fi
 done
 
+# The suites (benchmark protocol v1): one episode on every layout of cabin-v1-test, then of cabin-v1-ood, each
+# from a start pose drawn from the episode's seed; the classic baselines K = 1 first, then the shipped policy.
+suite_run() { printf -v arguments '%q ' "$@"; echo "python -m cabinbench.run --seed 0 --out results/runs $arguments> /dev/null" >> "$queue"; }
+for suite in cabin-v1-test cabin-v1-ood; do
+  if $classic; then
+    suite_run --suite "$suite" --baseline boustrophedon
+    suite_run --suite "$suite" --baseline random_bounce
+    suite_run --suite "$suite" --baseline boustrophedon --agents 2
+    suite_run --suite "$suite" --baseline boustrophedon --agents 4
+  fi
+  if [ -f baselines/ppo_gail/checkpoints/ppo_gail.pt ]; then
+    suite_run --suite "$suite" --baseline ppo_gail
+  fi
+done
+
 # The learned baselines' further training runs (results/ablation.md): the policies of seeds 1, 2, ... kept in
 # results/training/<baseline>/seed<S>/ by `python -m cabinbench.train --baseline <baseline> --seed <S> --keep`.
 for policy in results/training/*/seed*/policy.pt; do

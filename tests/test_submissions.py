@@ -9,13 +9,15 @@ from pathlib import Path
 import pytest
 
 from cabinbench import leaderboard, run, submissions
-from cabinbench.submissions import SUITES, SubmissionError, checksum
+from cabinbench.submissions import SubmissionError, checksum
+from cabinbench.suites import get_suite
 
 from .plugin import install_spinner
 
 ROOT = Path(__file__).resolve().parents[1]
-CLASSIC = SUITES["classic"]
-STEPS = "8"  # short episodes: the protocol's seeds on every layout, each a few steps
+CLASSIC = get_suite("classic")
+STEPS = "8"  # short episodes: every layout of the suite, the protocol's seeds, each a few steps
+PER_LAYOUT = 2
 
 
 @pytest.fixture(scope="module")
@@ -26,9 +28,9 @@ def plugin(tmp_path_factory):
     with pytest.MonkeyPatch.context() as patch:
         patch.syspath_prepend(str(site))
         submission = root / "spinner.json"
-        for layout in CLASSIC.layout_names:
-            arguments = ["--baseline", "spinner", "--layout", layout, "--max-steps", STEPS]
-            assert run.main([*arguments, "--out", str(root / "runs"), "--submission", str(submission)]) == 0
+        arguments = ["--baseline", "spinner", "--suite", "classic", "--episodes-per-layout", str(PER_LAYOUT)]
+        out = ["--max-steps", STEPS, "--out", str(root / "runs"), "--submission", str(submission)]
+        assert run.main([*arguments, *out]) == 0
         yield root, site, submission
 
 
@@ -52,9 +54,12 @@ def test_a_submission_holds_everything_needed_to_check_and_replay_it(plugin):
     assert body["baseline"]["entry_point"] == "spinner_pkg:Spinner"
     assert body["packages"]["spinner-pkg"] == "0.1" and body["packages"]["cabinbench"]
     seeds = sorted((record["layout"], record["seed"] + record["episode"]) for record in body["records"])
-    assert seeds == sorted(
-        (layout, seed) for layout in CLASSIC.layout_names for seed in CLASSIC.episode_seeds
-    )
+    protocol = [
+        (layout, position * PER_LAYOUT + episode)
+        for position, layout in enumerate(CLASSIC.layout_names)
+        for episode in range(PER_LAYOUT)
+    ]
+    assert seeds == sorted(protocol)
 
 
 def test_a_plugin_submission_is_filed_shown_and_verified(plugin, own_runs, tmp_path, monkeypatch):
@@ -129,21 +134,29 @@ def drop_field(name):
 
 
 REJECTIONS = {
-    "unknown suite": (set_in(["suite", "name"], "nope"), "unknown suite 'nope'"),
-    "other suite version": (set_in(["suite", "version"], "0"), "made for suite classic version 0"),
+    "unknown suite": (set_in(["suite", "name"], "nope"), "unknown suite"),
+    "other suite version": (set_in(["suite", "version"], 0), "made for suite classic version 0"),
     "suite hash": (
         set_in(["suite", "layout_hashes", "a320_cell"], "0" * 16),
         "layout a320_cell has hash 0000",
     ),
     "record hash": (set_in(["records", 0, "layout_hash"], "f" * 16), "record 0: layout a320_cell hash ffff"),
     "missing layout": (drop_layout("full_cabin"), "layout full_cabin of suite classic has no episodes"),
-    "foreign layout": (set_in(["records", 0, "layout"], "paper_matrix_a"), "not in suite classic"),
+    "foreign layout": (set_in(["records", 0, "layout"], "cabin-v1-test/0000"), "not in suite classic"),
+    "other suite's record": (
+        set_in(["records", 0, "suite"], "cabin-v1-test"),
+        "record 0: suite 'cabin-v1-test'",
+    ),
     "partial": (lambda body: body["records"].pop(0), "missing [0]"),
     "duplicate episode": (
         set_in(["records", 1, "episode"], 0),
         "episode seed(s) [0] recorded more than once",
     ),
     "seeds off protocol": (set_in(["records", 0, "seed"], 100), "not in the protocol [100]"),
+    "seeds of another layout": (
+        set_in(["records", 2, "seed"], 0),
+        "a320_tracking_cell: the protocol's episode",
+    ),
     "missing field": (drop_field("coverage"), "record 0: field 'coverage' missing"),
     "bad number": (set_in(["records", 0, "coverage"], 1.5), "record 0: coverage 1.5 is outside [0, 1]"),
     "not a number": (set_in(["records", 0, "time"], "soon"), "record 0: time 'soon' is not a number"),

@@ -103,7 +103,7 @@ from ..lidar import LidarConfig
 from ..metrics import EpisodeTracker
 from ..render import EnvRenderer
 from ..rewards import REWARD_PRESETS, reward
-from ..world import World, start_cell_spots
+from ..world import World, random_start_poses, start_cell_spots
 
 OBSERVATION_SETTINGS = ("n_rays", "lidar_range", "field_of_view", "coverage_patch", "coverage_patch_cell")
 """The arguments (of this env and the team env) that shape the observation."""
@@ -159,16 +159,13 @@ class CoverageEnv(gym.Env):
         random_start: bool = False,
         render_mode: str | None = None,
     ):
-        self.layout = layout if isinstance(layout, Layout) else load_layout(layout)
         lidar = LidarConfig(n_rays, lidar_range, field_of_view, lidar_noise)
-        self.world = World(
-            self.layout, 1, protocol, lidar, CoveragePatch(coverage_patch, coverage_patch_cell)
-        )
+        self._world_settings = (protocol, lidar, CoveragePatch(coverage_patch, coverage_patch_cell))
+        self._step_limit, self._random_start = max_steps, random_start
+        self.use_layout(layout if isinstance(layout, Layout) else load_layout(layout))
         if reward not in REWARD_PRESETS:
             raise ValueError(f"unknown reward preset {reward!r}; choose one of {REWARD_PRESETS}")
         self.reward_preset, self.terminate_on_bound = reward, terminate_on_bound
-        self.start_spots = start_cell_spots(self.layout) if random_start else None
-        self.max_steps = max_steps or self.layout.max_steps
         self.render_mode = render_mode
         self.observation_space = observation_space(self.world.observation_size)
         self.observation_layout = self.world.observation_layout  # part name -> slice (cabinbench.observation)
@@ -186,12 +183,18 @@ class CoverageEnv(gym.Env):
         self.tracker: EpisodeTracker | None = None
         self.renderer = EnvRenderer(render_mode)
 
+    def use_layout(self, layout: Layout) -> None:
+        """Play on ``layout`` from the next reset on (the observation's shape does not depend on it)."""
+        self.layout = layout
+        self.world = World(layout, 1, *self._world_settings)
+        self.start_spots = start_cell_spots(layout) if self._random_start else None
+        self.max_steps = self._step_limit or layout.max_steps
+
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         start = None
         if self.start_spots is not None:
-            x, y = self.start_spots[self.np_random.integers(len(self.start_spots))]
-            start = np.array([[x, y, self.np_random.uniform(-math.pi, math.pi)]])
+            start = random_start_poses(self.layout, self.start_spots, 1, self.np_random)
         self.world.reset(self.np_random, start)
         self.tracker = EpisodeTracker(self.world)
         if self.render_mode == "human":

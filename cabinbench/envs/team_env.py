@@ -8,7 +8,9 @@ raster. Each robot sees only its own lidar and velocity, exactly as in the singl
 
 **Agents**: ``robot_0`` … ``robot_{K-1}``; ``robot_0`` starts at the layout's start pose, the
 others at the nearest free spots of the start cell (deterministic, at least a robot diameter plus
-5 cm apart). Asking for more robots than the start cell holds raises ``ValueError``.
+5 cm apart). With ``random_start`` every reset draws the K poses from its seed instead (random
+free spots of the start cell as far apart, uniform headings). Asking for more robots than the
+start cell holds raises ``ValueError``.
 
 **Action** (per agent): ``Box(-1, 1, (2,), float32)`` = (linear, angular), scaled by the robot's
 ``max_speed`` and ``max_turn_rate``. Out-of-range values are clipped; NaN or infinite values
@@ -70,7 +72,7 @@ value with ``torch.tensor`` into the spec it built from the reset's infos).
 Gaussian; the only randomness, drawn from the reset seed), ``coverage_patch`` (cells per side, 0:
 none) and ``coverage_patch_cell`` (m), ``max_cycles`` (default: the
 layout's ``max_steps``), ``render_mode`` (``"rgb_array"`` or ``"human"``), ``team_weight``,
-``record_in_info``.
+``record_in_info``, ``random_start``.
 """
 
 from __future__ import annotations
@@ -88,7 +90,7 @@ from ..lidar import LidarConfig
 from ..metrics import EpisodeTracker
 from ..render import EnvRenderer
 from ..rewards import REWARD_PRESETS, reward
-from ..world import World
+from ..world import World, random_start_poses, start_cell_spots
 from .coverage_env import checked_action, observation_space
 
 STATE_ENTRIES_PER_ROBOT = 6  # x, y, cos heading, sin heading, forward speed, turn rate
@@ -119,6 +121,7 @@ class TeamCoverageEnv(ParallelEnv):
         render_mode: str | None = None,
         team_weight: float = 0.5,
         record_in_info: bool = True,
+        random_start: bool = False,
     ):
         if n_agents < 1:
             raise ValueError(f"n_agents must be at least 1, got {n_agents}")
@@ -135,6 +138,7 @@ class TeamCoverageEnv(ParallelEnv):
         self.reward_preset, self.team_weight, self.record_in_info = reward, team_weight, record_in_info
         self.max_cycles = max_cycles or self.layout.max_steps
         self.render_mode = render_mode
+        self.start_spots = start_cell_spots(self.layout) if random_start else None
 
         self.possible_agents = [f"robot_{index}" for index in range(n_agents)]
         self.agents: list[str] = []
@@ -174,7 +178,10 @@ class TeamCoverageEnv(ParallelEnv):
         # Gymnasium's convention: a seed re-seeds; no seed keeps the generator (seeding it once).
         if seed is not None or self.np_random is None:
             self.np_random, _ = seeding.np_random(seed)
-        self.world.reset(self.np_random)
+        start = None
+        if self.start_spots is not None:
+            start = random_start_poses(self.layout, self.start_spots, self.world.n_robots, self.np_random)
+        self.world.reset(self.np_random, start)
         self.tracker = EpisodeTracker(self.world)
         self.episode_record = None
         # The tracker sums contacts over the team; infos report them per robot.
