@@ -4,7 +4,7 @@ Plain HTML and CSS with a little JavaScript of our own (``cabinbench/site_files/
 network fetch, so it works opened from ``file://`` and from any static host. From the records
 only, and byte-identical from the same records (no timestamps, sorted everything):
 
-- ``index.html``: the ``classic`` board (and ``suite__<name>.html`` for each suite in the records):
+- ``index.html``: the ``classic`` board (and ``suite__<name>.html`` for each other suite in the records):
   one row per (layout, baseline, protocol, K), with the numbers and intervals of
   :mod:`cabinbench.leaderboard_table` (the same functions as ``leaderboard.md``), sortable by any
   column and filterable by protocol, team size, layout and entry; the layouts' complexity; the
@@ -92,10 +92,6 @@ def layout_page_name(layout: str) -> str:
 
 def baseline_page_name(baseline: str) -> str:
     return f"baselines/{safe_name(baseline)}.html"
-
-
-def suite_page_name(suite: str) -> str:
-    return "index.html" if suite == "classic" else f"suite__{safe_name(suite)}.html"
 
 
 def board_columns() -> list[tuple[str, str]]:
@@ -433,7 +429,12 @@ def build_site(
     for asset in ASSETS:
         (out / asset).write_bytes(files("cabinbench.site_files").joinpath(asset).read_bytes())
     suites = sorted({entry.suite for entry in entries}, key=lambda name: (name != "classic", name))
-    nav = "".join(f'<a href="{{root}}{suite_page_name(suite)}">{escape(suite)}</a>' for suite in suites)
+    # the first board (classic, when there is one) is the index
+    names = {
+        suite: "index.html" if not index else f"suite__{safe_name(suite)}.html"
+        for index, suite in enumerate(suites)
+    }
+    nav = "".join(f'<a href="{{root}}{names[suite]}">{escape(suite)}</a>' for suite in suites)
     cite, bib = cite_block(citation)
     shutil.copyfile(citation, out / "CITATION.cff")
     (out / "cabinbench.bib").write_text(bib, encoding="utf-8")
@@ -442,7 +443,7 @@ def build_site(
     for suite in suites:
         board = [entry for entry in entries if entry.suite == suite]
         records = sum(len(entry.episodes) for entry in board)
-        pages.append(out / suite_page_name(suite))
+        pages.append(out / names[suite])
         pages[-1].write_text(index_page(suite, board, cite, records, command, nav), encoding="utf-8")
     for name in sorted({entry.row["layout"] for entry in entries}):
         rows = [entry for entry in entries if entry.row["layout"] == name]
