@@ -201,3 +201,53 @@ def test_every_picture_and_link_of_every_page_resolves(built, tmp_path):
         "--window-size=1400,900", f"--screenshot={screenshot}", (site / "index.html").as_uri()
     )
     assert completed.returncode == 0 and screenshot.stat().st_size > 10_000, completed.stderr[-2000:]
+
+
+CLICKS = """<script>
+// Clicks as a user makes them, after the site's script: the coverage title twice, then the protocol filter.
+const order = () => Array.from(document.querySelectorAll("table.board tbody tr"))
+  .filter((row) => !row.hidden).map((row) => row.dataset.protocol + ":" + row.cells[2].textContent).join(",");
+const later = (step) => new Promise((done) => setTimeout(() => { step(); done(); }, 50));
+(async () => {
+  const title = document.querySelector('th[data-key="coverage"]');
+  await later(() => title.click());
+  await later(() => { document.body.dataset.first = order(); title.click(); });
+  await later(() => {
+    document.body.dataset.second = order();
+    const select = document.querySelector('select[data-filter="protocol"]');
+    select.value = "open";
+    select.dispatchEvent(new Event("change"));
+  });
+  await later(() => { document.body.dataset.filtered = order(); });
+})();
+</script>
+</body>"""
+
+
+class Body(HTMLParser):
+    def handle_starttag(self, tag, attributes):
+        if tag == "body":
+            self.attributes = dict(attributes)
+
+
+@needs_chromium
+def test_clicking_a_column_title_sorts_and_choosing_a_filter_filters(built, tmp_path):
+    """The site's own script driven by clicks in the browser (a copy of the index, a few clicks added)."""
+    _, site = built
+    copy = tmp_path / "site"
+    shutil.copytree(site, copy)
+    clicked = copy / "clicked.html"
+    clicked.write_text((copy / "index.html").read_text().replace("</body>", CLICKS))
+    completed = chromium("--virtual-time-budget=5000", "--dump-dom", clicked.as_uri())
+    body = Body()
+    body.feed(completed.stdout)
+    coverage = {row: float(value) for row, value in zip(*order_and_coverage(rendered(copy / "index.html")))}
+    first, second = body.attributes["data-first"].split(","), body.attributes["data-second"].split(",")
+    assert [coverage[row] for row in first] == sorted(coverage.values())
+    assert [coverage[row] for row in second] == sorted(coverage.values(), reverse=True)
+    assert body.attributes["data-filtered"] == "open:boustrophedon"
+
+
+def order_and_coverage(page: Page) -> tuple[list[str], list]:
+    rows = [f"{row['attributes']['data-protocol']}:{row['cells'][2]}" for row in page.shown]
+    return rows, column(page, "coverage")
