@@ -1,7 +1,9 @@
 """Regenerate the leaderboard from the per-episode records: ``python -m cabinbench.leaderboard``.
 
     python -m cabinbench.leaderboard [--runs results/runs] [--ablation-runs results/ablation_runs]
-        [--training results/training] [--out results]
+        [--training results/training] [--submissions results/submissions] [--out results]
+    python -m cabinbench.leaderboard --site DIR [--runs ...] [--out results]
+    python -m cabinbench.leaderboard --add FILE | --verify FILE [--episodes N] [--seed S]
 
 Reads every ``*.jsonl`` in ``--runs`` and ``--ablation-runs`` (default: ``ablation_runs`` beside
 ``--runs``), and the ``.npz`` beside each (see :mod:`cabinbench.records`), and writes, from those
@@ -19,7 +21,16 @@ files only, one report per module:
 - ``<out>/ablation.md``, ``<out>/ablation.csv`` and ``figures/ablation_coverage.png``
   (:mod:`cabinbench.leaderboard_ablation`). The shipped policies' episodes come from ``--runs``.
 
-Exit status 2, with one line on stderr, when ``--runs`` holds no records or a bad one.
+The submissions filed in ``--submissions`` (default: ``submissions`` beside ``--runs``) are rows
+of ``leaderboard.md`` and ``.csv`` too, their baseline marked ``(submission, <status>)``.
+
+``--site DIR`` writes the static site instead (:mod:`cabinbench.leaderboard_site`), its figures
+copied from ``<out>/figures``. ``--add FILE`` checks a submission and files it in
+``--submissions``; ``--verify FILE`` replays ``--episodes`` of its episodes
+(:mod:`cabinbench.submissions`).
+
+Exit status 2, with one line on stderr, when ``--runs`` holds no records or a bad one, or a
+submission is refused; 1 when a verification finds a metric that differs.
 """
 
 from __future__ import annotations
@@ -29,13 +40,15 @@ from pathlib import Path
 
 import pandas as pd
 
-from .cli import ArgumentParser, UsageError, output_folder, user_errors
+from .cli import ArgumentParser, UsageError, non_negative_int, output_folder, positive_int, user_errors
 from .leaderboard_ablation import ablation_csv, ablation_figure, ablation_markdown, ablation_rows
 from .leaderboard_figures import training_figures, write_figures
+from .leaderboard_site import Entry, build_site
 from .leaderboard_suites import classic, suite_records, suites_section
 from .leaderboard_table import csv_table, group_rows, markdown, mixed_settings, summarize_row, table_rows
 from .leaderboard_uncovered import uncovered_csv, uncovered_markdown, uncovered_rows
 from .records import read_records, with_current_complexity
+from .submissions import add, filed, status, verify
 
 
 def records_in(folder: str, option: str) -> pd.DataFrame:
@@ -47,6 +60,31 @@ def records_in(folder: str, option: str) -> pd.DataFrame:
         return with_current_complexity(read_records(folder))
     except ValueError as error:
         raise UsageError(f"{option}: {error}; fix or remove that file") from None
+
+
+def submission_entries(folder: Path) -> list[Entry]:
+    """The rows of every filed submission, marked with its status."""
+    entries = []
+    for path, body in filed(folder):
+        records = pd.DataFrame(body["records"]).assign(source=str(path))
+        for key, episodes in group_rows(records):
+            entries.append(Entry(summarize_row(key, episodes), episodes, f"submission, {status(path, body)}"))
+    return entries
+
+
+def submission_command(args) -> int:
+    """``--add`` or ``--verify``."""
+    folder = Path(args.submissions or Path(args.runs).parent / "submissions")
+    if args.add:
+        target = add(Path(args.add), folder)
+        print(f"filed {args.add} as {target}; regenerate the leaderboard and the site to show it")
+        return 0
+    played, mismatches = verify(Path(args.verify), args.episodes, args.seed, folder)
+    for line in mismatches:
+        print(f"differs: {line}")
+    verdict = "unverified: the replay differs" if mismatches else f"verified ({len(played)})"
+    print(f"{verdict}; replayed {', '.join(played)}")
+    return 1 if mismatches else 0
 
 
 @user_errors
@@ -73,7 +111,23 @@ def main(argv: list[str] | None = None) -> int:
         help="folder for leaderboard.{md,csv}, uncovered.{md,csv}, ablation.{md,csv} and figures/ "
         "(default results)",
     )
+    parser.add_argument(
+        "--submissions",
+        help="folder of filed submissions (default: submissions beside --runs)",
+    )
+    action = parser.add_mutually_exclusive_group()
+    action.add_argument("--site", type=output_folder, metavar="DIR", help="write the static site into DIR")
+    action.add_argument("--add", metavar="FILE", help="check a submission and file it in --submissions")
+    action.add_argument("--verify", metavar="FILE", help="replay episodes of a submission and compare")
+    parser.add_argument(
+        "--episodes", type=positive_int, default=3, help="episodes --verify replays (default 3)"
+    )
+    parser.add_argument(
+        "--seed", type=non_negative_int, default=0, help="seed of --verify's choice of episodes (default 0)"
+    )
     args = parser.parse_args(argv)
+    if args.add or args.verify:
+        return submission_command(args)
     if not Path(args.runs).is_dir():
         raise UsageError(f"--runs: no folder {args.runs}; give the folder of a run's records")
     records = records_in(args.runs, "--runs")
@@ -88,11 +142,23 @@ def main(argv: list[str] | None = None) -> int:
     notes = [note for key, episodes in groups for note in mixed_settings(key, episodes)]
     for note in notes:
         print(f"warning: {note}", file=sys.stderr)
-
+    submitted = submission_entries(Path(args.submissions or Path(args.runs).parent / "submissions"))
+    own = table_rows(classic(every), training)
     out = args.out
+    if args.site:
+        command = f"python -m cabinbench.leaderboard --runs {args.runs} --out {out} --site DIR"
+        entries = [Entry(row, episodes) for row, episodes in own] + submitted
+        pages = build_site(
+            args.site, entries, out / "figures", Path(args.training), Path("CITATION.cff"), command
+        )
+        print(f"{len(entries)} rows, {len(pages)} pages: {args.site / 'index.html'}")
+        return 0
+    table = [row for row, _ in own] + [
+        {**entry.row, "baseline": f"{entry.row['baseline']} ({entry.source})"} for entry in submitted
+    ]
+
     out.mkdir(parents=True, exist_ok=True)
     command = f"python -m cabinbench.leaderboard --runs {args.runs} --out {out}"
-    table = table_rows(classic(every), training)
     sources = f"`{args.runs}` (shipped policies) and `{ablation_runs}` (the other training seeds' policies)"
     text = markdown(table, classic(every), sources, command, notes)
     suite_text, suite_figures = suites_section(suite_records(every), out)

@@ -117,23 +117,23 @@ def summarize_row(key: dict, episodes: pd.DataFrame, policy: str = "") -> dict:
     return row
 
 
-def table_rows(records: pd.DataFrame, training: Path) -> list[dict]:
-    """Every row of the table: per (layout, baseline, protocol, K) one row; for a learned baseline
-    (one with shipped training records in ``training``, or episodes of several policies) one per
-    training seed's policy, the shipped one first, then one over all of them."""
+def table_rows(records: pd.DataFrame, training: Path) -> list[tuple[dict, pd.DataFrame]]:
+    """Every row of the table with the episodes it summarises: per (layout, baseline, protocol, K)
+    one row; for a learned baseline (one with shipped training records in ``training``, or episodes
+    of several policies) one per training seed's policy, the shipped one first, then one over all."""
     seeds = shipped_seeds(training)
     rows = []
     for key, episodes in group_rows(records):
         policies = [policy_of(config) for config in episodes["baseline_config"]]
         order = sorted(set(policies), key=lambda policy: (policy != SHIPPED, policy_name(policy)))
         if key["baseline"] not in seeds and len(order) == 1:
-            rows.append(summarize_row(key, episodes))
+            rows.append((summarize_row(key, episodes), episodes))
             continue
         for policy in order:
             chosen = episodes[[name == policy for name in policies]]
-            rows.append(summarize_row(key, chosen, seed_label(policy, seeds, key["baseline"])))
+            rows.append((summarize_row(key, chosen, seed_label(policy, seeds, key["baseline"])), chosen))
         if len(order) > 1:
-            rows.append(summarize_row(key, episodes, ALL_SEEDS))
+            rows.append((summarize_row(key, episodes, ALL_SEEDS), episodes))
     return rows
 
 

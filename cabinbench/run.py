@@ -4,7 +4,7 @@
         | --suite SUITE [--layouts K] [--episodes-per-layout N]) [--start random|fixed]
         [--seed S] [--agents K] [--protocol sequential|open]
         [--reward PRESET] [--max-steps N] [--config JSON] [--out DIR]
-        [--render FILE.png|FILE.gif] [--json] [--workers N]
+        [--render FILE.png|FILE.gif] [--json] [--workers N] [--submission FILE.json]
 
 Plays N independent episodes (episode i is seeded with S + i), appends one record per finished
 episode to ``DIR/<layout>__<baseline>__<protocol>__k<K>__seed<S>-<time>.jsonl`` (trajectories
@@ -20,6 +20,8 @@ fixed``), and the step limit is each layout's (scaled with its coverable area), 
 ``results/runs`` are written by ``results/make_results.sh`` alone. ``--render`` draws the first
 episode: a PNG of its final state (trajectory over the map, covered area shaded: the seed's
 Fig. 5.11) or an animated GIF. ``--reward`` takes a preset of :mod:`cabinbench.rewards`.
+``--submission FILE`` (with ``--suite``) also writes the run's records as one submission file for
+the leaderboard (:mod:`cabinbench.submissions`).
 
 Exit status: 0 done; 2 a user mistake, in one line on stderr, before any episode is played
 (unknown baseline or layout: the valid names are given; settings the baseline does not take;
@@ -57,6 +59,7 @@ from .metrics import METRICS, TEAM_METRICS
 from .records import RunWriter, run_header, run_path
 from .rewards import REWARD_PRESETS
 from .stats import Summary, distinct_episodes, summarize
+from .submissions import write_submission
 from .suites import get_suite
 from .world import PROTOCOLS, start_poses
 
@@ -123,6 +126,12 @@ def parse_args(argv: list[str] | None):
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     parser.add_argument(
         "--workers", type=positive_int, default=1, help="episodes played in parallel by a local process pool"
+    )
+    parser.add_argument(
+        "--submission",
+        metavar="FILE",
+        type=output_file(".json"),
+        help="with --suite: write the records as a submission (python -m cabinbench.leaderboard --add FILE)",
     )
     return parser.parse_args(argv)
 
@@ -236,6 +245,8 @@ def plan(args) -> tuple[str | None, list[str], int, bool]:
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     suite, names, episodes, random_start = plan(args)
+    if args.submission and not suite:
+        raise UsageError("--submission goes with --suite: a submission covers every layout of a suite")
     layouts = {name: load_layout(name) for name in names}  # every layout checked before any episode
     for layout in layouts.values():
         try:
@@ -292,6 +303,14 @@ def main(argv: list[str] | None = None) -> int:
             first = next(result for result in finished if result.job == jobs[0])
             save_render(first.trajectory["frames"], args.render)
         report(args, suite or layouts[names[0]].name, finished, list(writers.values()))
+        if args.submission:
+            records = [
+                json.loads(line)
+                for writer in writers.values()
+                for line in writer.path.read_text(encoding="utf-8").splitlines()
+            ]
+            write_submission(args.submission, records, args.baseline, get_suite(suite))
+            print(f"submission: {args.submission}", file=sys.stderr if args.json else sys.stdout)
     except KeyboardInterrupt:
         kept = [writer for writer in writers.values() if writer.episodes_written()]
         count = sum(writer.episodes_written() for writer in kept)

@@ -88,4 +88,5 @@ done
 
 xargs -d '\n' -P "$(nproc)" -I{} bash -c {} < "$queue"
 python -m cabinbench.leaderboard
+python -m cabinbench.leaderboard --site results/site
 python -m cabinbench.paper

@@ -12,6 +12,8 @@ from pathlib import Path
 import cabinbench
 from cabinbench.agents import BaselineError, load_baseline, registered_baselines
 
+from .plugin import install_spinner
+
 CORE = Path(cabinbench.__file__).resolve().parent
 BUILT_IN = {"random_bounce", "boustrophedon", "ppo_gail", "ppo", "ppo_icm", "ppo_gail_only"}
 
@@ -42,27 +44,7 @@ def test_a_third_party_package_adds_a_baseline_through_its_entry_point(tmp_path)
     """A package that declares ``spinner = "spinner_pkg:Spinner"`` in the entry-point group
     ``cabinbench.baselines`` runs as ``run --baseline spinner`` with no edit to cabinbench. The package is
     installed the way pip leaves it: its module and a dist-info folder with entry_points.txt, on sys.path."""
-    site = tmp_path / "site"
-    (site / "spinner_pkg").mkdir(parents=True)
-    (site / "spinner_pkg" / "__init__.py").write_text(
-        textwrap.dedent(
-            '''
-            import numpy as np
-            from cabinbench.agents import Baseline
-
-            class Spinner(Baseline):
-                """Turns on the spot."""
-                name = "spinner"
-
-                def act(self, observation, info):
-                    return np.array([0.0, 1.0])
-            '''
-        )
-    )
-    dist_info = site / "spinner_pkg-0.1.dist-info"
-    dist_info.mkdir()
-    (dist_info / "METADATA").write_text("Metadata-Version: 2.1\nName: spinner-pkg\nVersion: 0.1\n")
-    (dist_info / "entry_points.txt").write_text("[cabinbench.baselines]\nspinner = spinner_pkg:Spinner\n")
+    site = install_spinner(tmp_path / "site")
     out = tmp_path / "runs"
     args = ["-m", "cabinbench.run", "--baseline", "spinner", "--layout", "a320_cell", "--episodes", "1"]
     completed = run_python(

@@ -1,0 +1,461 @@
+"""The leaderboard as a static web site: ``python -m cabinbench.leaderboard --site DIR``.
+
+Plain HTML and CSS with a little JavaScript of our own (``cabinbench/site_files/``): no CDN, no
+network fetch, so it works opened from ``file://`` and from any static host. From the records
+only, and byte-identical from the same records (no timestamps, sorted everything):
+
+- ``index.html``: the ``classic`` board (and ``suite__<name>.html`` for each other suite in the records):
+  one row per (layout, baseline, protocol, K), with the numbers and intervals of
+  :mod:`cabinbench.leaderboard_table` (the same functions as ``leaderboard.md``), sortable by any
+  column and filterable by protocol, team size, layout and entry; the layouts' complexity; the
+  "cite this" block (BibTeX and CFF from ``CITATION.cff``) and ``leaderboard.csv`` to download;
+- ``layouts/<layout>.html``: the layout's picture and complexity map, and per row its trajectory
+  figure (copied from the leaderboard's ``figures/``) and a replay of the stored trajectory;
+- ``baselines/<baseline>.html``: what it is (its docstring, read without importing it), its
+  entry point, configs, the versions and commits its records came from, its training curves.
+
+Submissions (:mod:`cabinbench.submissions`) are rows like the others, marked with their status.
+Images live once, in ``images/``.
+"""
+
+from __future__ import annotations
+
+import ast
+import html
+import importlib.util
+import json
+import shutil
+from dataclasses import dataclass
+from importlib.resources import files
+from pathlib import Path
+from string import Template
+
+import numpy as np
+import pandas as pd
+import yaml
+from PIL import Image
+
+from .agents import registered_baselines
+from .cli import UsageError
+from .complexity import layout_complexity, save_complexity_png
+from .layout import RESOLUTION, available_layouts, load_layout
+from .leaderboard_table import COLUMNS, csv_table, markdown_cell, stored_run
+from .records import safe_name
+from .render import draw_frame, frame_scale
+from .world import World
+
+MARKER = ".cabinbench-site"  # a folder holding it was written by this module and may be rebuilt
+REPLAY_FRAMES = 240  # at most this many positions per robot in a replay: keeps pages small
+OWN_ENTRY = "cabinbench"  # the entry column of rows recorded by results/make_results.sh
+ASSETS = ("style.css", "site.js")
+
+
+@dataclass
+class Entry:
+    """One row of a board: a leaderboard row (:func:`~cabinbench.leaderboard_table.summarize_row`),
+    its episodes, and where it comes from (``cabinbench``, or a submission and its status)."""
+
+    row: dict
+    episodes: pd.DataFrame
+    source: str = OWN_ENTRY
+
+    @property
+    def suite(self) -> str:
+        suite = self.episodes["suite"].iloc[0] if "suite" in self.episodes else None
+        return suite if isinstance(suite, str) else "classic"
+
+    @property
+    def is_submission(self) -> bool:
+        return self.source != OWN_ENTRY
+
+    @property
+    def setting(self) -> str:
+        """The file-name part shared with the leaderboard's figure of this row."""
+        parts = "__".join(safe_name(self.row[name]) for name in ("layout", "baseline", "protocol"))
+        return f"{parts}__k{self.row['n_agents']}"
+
+
+def escape(value) -> str:
+    return html.escape(str(value), quote=True)
+
+
+def page(title: str, body: str, root: str, nav: str, command: str) -> str:
+    template = Template(files("cabinbench.site_files").joinpath("page.html").read_text(encoding="utf-8"))
+    return template.substitute(
+        title=escape(title), body=body, root=root, nav=nav.replace("{root}", root), command=escape(command)
+    )
+
+
+def layout_page_name(layout: str) -> str:
+    return f"layouts/{safe_name(layout)}.html"
+
+
+def baseline_page_name(baseline: str) -> str:
+    return f"baselines/{safe_name(baseline)}.html"
+
+
+def board_columns() -> list[tuple[str, str]]:
+    """(key, title) of every column of a board, in order."""
+    metrics = [(metric, title) for metric, (title, _) in COLUMNS.items()]
+    return [
+        ("layout", "layout"),
+        ("complexity", "complexity"),
+        ("baseline", "baseline"),
+        ("protocol", "protocol"),
+        ("k", "K"),
+        ("entry", "entry"),
+        ("episodes", "episodes"),
+        ("seeds", "seeds"),
+        metrics[0],
+        ("coverage_iqm", "coverage IQM"),
+        *metrics[1:],
+    ]
+
+
+def code(text: str) -> str:
+    return f"<code>{escape(text)}</code>"
+
+
+def figure_html(source: str, alt: str, caption: str) -> str:
+    return (
+        f'<figure><img src="{source}" alt="{escape(alt)}"><figcaption>{escape(caption)}</figcaption></figure>'
+    )
+
+
+def number_cell(value: float, text: str, title: str = "") -> str:
+    sort = "" if np.isnan(value) else repr(float(value))
+    hint = f' title="{escape(title)}"' if title else ""
+    return f'<td class="num" data-sort="{sort}"{hint}>{escape(text)}</td>'
+
+
+def metric_cell(summary, number_format: str) -> str:
+    """The Markdown leaderboard's cell, with the exact interval as a tooltip and the mean to sort by."""
+    title = ""
+    if not np.isnan(summary.low):
+        title = f"95% CI [{summary.low:{number_format}}, {summary.high:{number_format}}], n = {summary.n}"
+    return number_cell(summary.mean, markdown_cell(summary, number_format), title)
+
+
+def board_row(entry: Entry, root: str) -> str:
+    row = entry.row
+    cells = [
+        f'<td><a href="{root}{layout_page_name(row["layout"])}">{escape(row["layout"])}</a></td>',
+        number_cell(
+            row["complexity_normalized"],
+            f"{row['complexity_normalized']:.4f}",
+            f"normalised; total {row['complexity_total']:.2f}",
+        ),
+        f'<td><a href="{root}{baseline_page_name(row["baseline"])}">{escape(row["baseline"])}</a></td>',
+        f"<td>{escape(row['protocol'])}</td>",
+        number_cell(row["n_agents"], str(row["n_agents"])),
+        f"<td>{escape(entry.source)}</td>",
+        number_cell(row["episodes"], str(row["episodes"])),
+        number_cell(row["seeds"], str(row["seeds"])),
+        metric_cell(row["coverage"], COLUMNS["coverage"][1]),
+        number_cell(row["coverage_iqm"], f"{row['coverage_iqm']:.3f}"),
+        *(metric_cell(row[metric], form) for metric, (_, form) in COLUMNS.items() if metric != "coverage"),
+    ]
+    attributes = (
+        f'data-protocol="{escape(row["protocol"])}" data-k="{row["n_agents"]}" '
+        f'data-layout="{escape(row["layout"])}" data-entry="{"submission" if entry.is_submission else "own"}"'
+    )
+    marked = ' class="submission"' if entry.is_submission else ""
+    return f"<tr{marked} {attributes}>" + "".join(cells) + "</tr>"
+
+
+def filter_select(name: str, title: str, values) -> str:
+    options = '<option value="">all</option>' + "".join(
+        f'<option value="{escape(value)}">{escape(label)}</option>' for value, label in values
+    )
+    return f'<label>{title}<select data-filter="{name}">{options}</select></label>'
+
+
+def board_table(entries: list[Entry], root: str) -> str:
+    headers = "".join(f'<th data-key="{key}">{escape(title)}</th>' for key, title in board_columns())
+    rows = "\n".join(board_row(entry, root) for entry in entries)
+    protocols = sorted({entry.row["protocol"] for entry in entries})
+    teams = sorted({int(entry.row["n_agents"]) for entry in entries})
+    layouts = sorted({entry.row["layout"] for entry in entries})
+    filters = (
+        '<p class="filters">'
+        + filter_select("protocol", "protocol", [(value, value) for value in protocols])
+        + filter_select("k", "team size K", [(str(value), str(value)) for value in teams])
+        + filter_select("layout", "layout", [(value, value) for value in layouts])
+        + filter_select("entry", "entry", [("own", "cabinbench runs"), ("submission", "submissions")])
+        + f'<span id="shown">{len(entries)}</span> of {len(entries)} rows shown</p>'
+    )
+    return (
+        f'{filters}<table class="board"><thead><tr>{headers}</tr></thead>\n<tbody>\n{rows}\n</tbody></table>'
+    )
+
+
+def bibtex(citation: dict) -> str:
+    """BibTeX entries for CITATION.cff: the software, then each reference (the dissertation)."""
+
+    def authors(people: list[dict]) -> str:
+        names = [
+            person.get("name") or f"{person.get('family-names', '')}, {person.get('given-names', '')}"
+            for person in people
+        ]
+        return " and ".join(
+            f"{{{name}}}" if "name" in person else name for name, person in zip(names, people)
+        )
+
+    entries = [
+        "@software{cabinbench,\n"
+        f"  title = {{{citation['title']}}},\n"
+        f"  author = {{{authors(citation.get('authors', []))}}},\n"
+        f"  version = {{{citation.get('version', '')}}},\n"
+        f"  license = {{{citation.get('license', '')}}},\n"
+        f"  note = {{{citation.get('message', '')}}}\n"
+        "}"
+    ]
+    for index, reference in enumerate(citation.get("references", [])):
+        kind = "phdthesis" if reference.get("type") == "thesis" else "misc"
+        family = reference["authors"][0].get("family-names", "ref")
+        key = f"{safe_name(family).lower()}{reference.get('year', '')}"
+        fields = [
+            ("title", reference.get("title")),
+            ("author", authors(reference.get("authors", []))),
+            ("school", reference.get("institution", {}).get("name")),
+            ("year", reference.get("year")),
+            ("type", reference.get("thesis-type")),
+        ]
+        body = ",\n".join(f"  {name} = {{{value}}}" for name, value in fields if value)
+        entries.append(f"@{kind}{{{key if index == 0 else f'{key}_{index}'},\n{body}\n}}")
+    return "\n\n".join(entries) + "\n"
+
+
+def cite_block(citation_path: Path) -> tuple[str, str]:
+    """(the HTML block, the BibTeX text) for ``CITATION.cff``."""
+    if not citation_path.is_file():
+        raise UsageError(f"--site: no {citation_path} here; run from the repository root")
+    text = citation_path.read_text(encoding="utf-8")
+    bib = bibtex(yaml.safe_load(text))
+    block = (
+        '<h2 id="cite">Cite this</h2><p>If you use cabinbench or its leaderboard, cite it '
+        '(<a href="cabinbench.bib">cabinbench.bib</a>, <a href="CITATION.cff">CITATION.cff</a>):</p>'
+        f"<pre>{escape(bib)}</pre><details><summary>CITATION.cff</summary><pre>{escape(text)}</pre></details>"
+    )
+    return block, bib
+
+
+def docstring(target: str) -> str:
+    """The first paragraph of a ``module:Class``'s docstring (else its module's), read from the
+    source without importing it (a learned baseline imports torch); empty when not installed."""
+    module, _, name = target.partition(":")
+    top = importlib.util.find_spec(module.split(".")[0])
+    if top is None or not top.submodule_search_locations and "." in module:
+        return ""
+    base = Path(top.origin).parent if top.submodule_search_locations else Path(top.origin)
+    parts = module.split(".")[1:]
+    candidates = [base.joinpath(*parts).with_suffix(".py"), base.joinpath(*parts, "__init__.py"), base]
+    source = next((path for path in candidates if path.is_file()), None)
+    if source is None:
+        return ""
+    tree = ast.parse(source.read_text(encoding="utf-8"))
+    classes = [node for node in tree.body if isinstance(node, ast.ClassDef) and node.name == name]
+    text = (ast.get_docstring(classes[0]) if classes else None) or ast.get_docstring(tree) or ""
+    return text.split("\n\n")[0]
+
+
+def distinct(episodes: pd.DataFrame, column: str) -> list[str]:
+    values = episodes[column] if column in episodes else []
+    return sorted(
+        {json.dumps(value, sort_keys=True) if not isinstance(value, str) else value for value in values}
+    )
+
+
+def baseline_page(baseline: str, entries: list[Entry], images: dict[str, str], command: str, nav: str) -> str:
+    target = registered_baselines().get(baseline, baseline if ":" in baseline else "")
+    episodes = pd.concat([entry.episodes for entry in entries], ignore_index=True)
+    about = docstring(target) if target else ""
+    body = [
+        f"<h1>{escape(baseline)}</h1>",
+        f"<p>{escape(about)}</p>"
+        if about
+        else '<p class="note">No description: the baseline is not installed here.</p>',
+        "<table>",
+        f"<tr><th>entry point</th><td><code>{escape(target or 'not installed here')}</code></td></tr>",
+        *(
+            f"<tr><th>{title}</th><td>{'<br>'.join(map(code, distinct(episodes, column)))}</td></tr>"
+            for column, title in (
+                ("baseline_config", "config"),
+                ("env_config", "env config"),
+                ("benchmark_version", "cabinbench version"),
+                ("git_commit", "code commit"),
+            )
+        ),
+        "</table>",
+        "<h2>Rows</h2>",
+        board_table(entries, "../"),
+    ]
+    if baseline in images:
+        body += [
+            "<h2>Training curves</h2>",
+            f'<figure><img src="../{images[baseline]}" alt="training curves of {escape(baseline)}"></figure>',
+        ]
+    return page(baseline, "\n".join(body), "../", nav, command)
+
+
+def replay_data(entry: Entry, layout, scale: int) -> dict | None:
+    """The first episode's stored positions for the replay (None when the row has no trajectories:
+    a submission)."""
+    if entry.is_submission:
+        return None
+    first = entry.episodes.iloc[0]
+    positions = stored_run(first["source"]).episodes[int(first["episode"])]["positions"]
+    keep = np.unique(
+        np.linspace(0, len(positions) - 1, min(REPLAY_FRAMES, len(positions))).round().astype(int)
+    )
+    robots = [np.round(positions[keep, robot], 2).ravel().tolist() for robot in range(positions.shape[1])]
+    return {
+        "origin": list(layout.origin),
+        "scale": scale / RESOLUTION,
+        "radius": layout.robot.radius,
+        "frames": len(keep),
+        "robots": robots,
+    }
+
+
+def layout_page(name: str, entries: list[Entry], figures: Path, out: Path, command: str, nav: str) -> str:
+    layout = load_layout(available_layouts().get(name, name))
+    world = World(layout)
+    world.reset(np.random.default_rng(0))  # the start pose is fixed; the generator is unused
+    picture = f"images/layout__{safe_name(name)}.png"
+    scale = frame_scale(world)
+    Image.fromarray(draw_frame(world, scale=scale)).save(out / picture)
+    complexity = f"images/complexity__{safe_name(name)}.png"
+    save_complexity_png(layout_complexity(layout), str(out / complexity), title=name)
+    hashes = {hash_ for entry in entries for hash_ in entry.episodes["layout_hash"]}
+    stale = (
+        f'<p class="note">The records were made with layout file(s) {", ".join(sorted(hashes))}; the file '
+        "shipped now "
+        f"is {layout.content_hash}.</p>"
+        if hashes != {layout.content_hash}
+        else ""
+    )
+    body = [
+        f"<h1>{escape(name)}</h1>",
+        stale,
+        figure_html(f"../{picture}", f"layout {name}", "the layout (start pose, cells, goals)"),
+        figure_html(
+            f"../{complexity}", f"complexity of {name}", "navigation complexity per robot-sized cell"
+        ),
+        "<h2>Rows</h2>",
+        board_table(entries, "../"),
+        "<h2>Trajectories</h2><p>The first episode of each row (lowest seed). Click a replay to play it.</p>",
+    ]
+    for index, entry in enumerate(entries):
+        caption = (
+            f"{entry.row['baseline']}, {entry.row['protocol']}, K={entry.row['n_agents']} ({entry.source})"
+        )
+        figure = figures / f"trajectory__{entry.setting}.png"
+        if figure.exists():
+            target = f"images/{figure.name}"
+            shutil.copyfile(figure, out / target)
+            body.append(figure_html(f"../{target}", "trajectory", caption))
+        data = replay_data(entry, layout, scale)
+        if data is not None:
+            body.append(
+                f'<figure><canvas data-replay="replay{index}" data-picture="../{picture}"></canvas>'
+                f"<figcaption>replay: {escape(caption)}</figcaption></figure>"
+                f'<script type="application/json" id="replay{index}">'
+                f"{json.dumps(data, separators=(',', ':'))}</script>"
+            )
+    return page(name, "\n".join(body), "../", nav, command)
+
+
+def index_page(suite: str, entries: list[Entry], cite: str, records: int, command: str, nav: str) -> str:
+    own = [entry for entry in entries if not entry.is_submission]
+    versions = sorted({str(version) for entry in own for version in entry.episodes["benchmark_version"]})
+    layouts = sorted(
+        {
+            (entry.row["layout"], entry.row["complexity_normalized"], entry.row["complexity_total"])
+            for entry in entries
+        }
+    )
+    layout_rows = "".join(
+        f'<tr><td><a href="{layout_page_name(name)}">{escape(name)}</a></td>'
+        f'<td class="num">{normalized:.4f}</td>'
+        f'<td class="num">{total:.2f}</td></tr>'
+        for name, normalized, total in layouts
+    )
+    body = [
+        f"<h1>cabinbench leaderboard: {escape(suite)}</h1>",
+        f"<p>{len(entries)} rows from {records} episodes; "
+        f"benchmark version {escape(', '.join(versions) or 'n/a')}. "
+        "Cells are <code>mean ± half-width of the 95% percentile-bootstrap interval</code> over episodes "
+        "(hover a cell for the exact bounds; a lone episode has no interval). IQM: interquartile mean. "
+        "t90: mean over the episodes that reached 90% coverage [the fraction that did]. "
+        "Seeds: distinct episode seeds. "
+        "Complexity: the layout's normalised navigation complexity (the study §4.1). "
+        "Click a column title to sort by it. Entries marked as submissions were sent in (see the README); "
+        '"verified (N)" means N of its episodes were replayed here and matched. '
+        '<a href="leaderboard.csv">Download the table (CSV)</a>.</p>',
+        board_table(entries, ""),
+        "<h2>Layouts</h2><table><thead><tr><th>layout</th><th>complexity (normalised)</th>"
+        "<th>complexity (total)</th>"
+        f"</tr></thead><tbody>{layout_rows}</tbody></table>",
+        cite,
+    ]
+    return page(f"leaderboard: {suite}", "\n".join(body), "", nav, command)
+
+
+def site_csv(entries: list[Entry]) -> str:
+    table = csv_table([entry.row for entry in entries])
+    table.insert(table.columns.get_loc("n_agents") + 1, "entry", [entry.source for entry in entries])
+    return table.to_csv(index=False, float_format="%.6g", lineterminator="\n")
+
+
+def prepare(out: Path) -> None:
+    """An empty ``out``: a folder this module wrote before is emptied, any other must be empty."""
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--site: {out} is a file; give a folder")
+    if out.exists() and any(out.iterdir()):
+        if not (out / MARKER).exists():
+            raise UsageError(f"--site: {out} holds other files; give an empty folder or a site built before")
+        shutil.rmtree(out)
+    for folder in ("images", "layouts", "baselines"):
+        (out / folder).mkdir(parents=True, exist_ok=True)
+    (out / MARKER).write_text("written by python -m cabinbench.leaderboard --site; rebuilt on each build\n")
+
+
+def build_site(
+    out: Path, entries: list[Entry], figures: Path, training: Path, citation: Path, command: str
+) -> list[Path]:
+    """Write the site into ``out``; return its pages."""
+    prepare(out)
+    for asset in ASSETS:
+        (out / asset).write_bytes(files("cabinbench.site_files").joinpath(asset).read_bytes())
+    suites = sorted({entry.suite for entry in entries}, key=lambda name: (name != "classic", name))
+    # the first board (classic, when there is one) is the index
+    names = {
+        suite: "index.html" if not index else f"suite__{safe_name(suite)}.html"
+        for index, suite in enumerate(suites)
+    }
+    nav = "".join(f'<a href="{{root}}{names[suite]}">{escape(suite)}</a>' for suite in suites)
+    cite, bib = cite_block(citation)
+    shutil.copyfile(citation, out / "CITATION.cff")
+    (out / "cabinbench.bib").write_text(bib, encoding="utf-8")
+    (out / "leaderboard.csv").write_text(site_csv(entries), encoding="utf-8")
+    pages = []
+    for suite in suites:
+        board = [entry for entry in entries if entry.suite == suite]
+        records = sum(len(entry.episodes) for entry in board)
+        pages.append(out / names[suite])
+        pages[-1].write_text(index_page(suite, board, cite, records, command, nav), encoding="utf-8")
+    for name in sorted({entry.row["layout"] for entry in entries}):
+        rows = [entry for entry in entries if entry.row["layout"] == name]
+        pages.append(out / layout_page_name(name))
+        pages[-1].write_text(layout_page(name, rows, figures, out, command, nav), encoding="utf-8")
+    curves = {}
+    for baseline in sorted({entry.row["baseline"] for entry in entries}):
+        figure = figures / f"training__{safe_name(baseline)}.png"
+        if (training / baseline / "metrics.csv").exists() and figure.exists():
+            curves[baseline] = f"images/{figure.name}"
+            shutil.copyfile(figure, out / curves[baseline])
+        rows = [entry for entry in entries if entry.row["baseline"] == baseline]
+        pages.append(out / baseline_page_name(baseline))
+        pages[-1].write_text(baseline_page(baseline, rows, curves, command, nav), encoding="utf-8")
+    return pages
