@@ -79,6 +79,24 @@ CASES = {
         ["layouts/bad.yaml: field 'kind'", "Fix:"],
     ),
     "layouts: unknown option": (["layouts", "--bogus"], ["unrecognized arguments: --bogus", "--help"]),
+    "run: unknown suite": (
+        ["run", "--baseline", "random_bounce", "--suite", "nope"],
+        ["nope: field '<suite>': unknown suite", "cabin-v1-test"],
+    ),
+    "run: suite layout out of range": (
+        [*RUN[:3], "--layout", "cabin-v1-test/0100"],
+        ["cabin-v1-test/0100", "not a layout of suite cabin-v1-test", "cabin-v1-test/0099"],
+    ),
+    "run: --episodes with --suite": (
+        ["run", "--baseline", "random_bounce", "--suite", "cabin-v1-test", "--episodes", "2"],
+        ["--episodes goes with --layout", "--episodes-per-layout"],
+    ),
+    "run: --layout and --suite": (
+        [*RUN, "--suite", "cabin-v1-test"],
+        ["argument --suite", "not allowed with argument --layout"],
+    ),
+    "suites: unknown suite": (["suites", "--png", "nope", "sheet.png"], ["unknown suite", "classic"]),
+    "suites: --png of another format": (["suites", "--png", "classic", "sheet.txt"], ["--png", ".png"]),
     "leaderboard: no such folder": (["leaderboard", "--runs", "nope"], ["--runs", "no folder nope"]),
     "leaderboard: no records": (["leaderboard", "--runs", "layouts"], ["--runs", "no records in layouts"]),
     "leaderboard: a bad record": (
