@@ -94,7 +94,11 @@ def build_cabin(check: FieldChecker, block, robot: RobotSpec) -> KindGeometry:
             "cabin.aisle_width", "the aisles take the whole width", "narrow the aisles or widen the cabin"
         )
 
-    slot_starts = front + np.concatenate([[0.0], np.cumsum(pitches)])  # row r spans [r], [r + 1]
+    # Row r spans [slot_starts[r], slot_starts[r + 1]). Written as front + r * pitch plus the exit
+    # rows' extra legroom before r (not a cumulative sum), so a cabin without exit rows has the
+    # very same floating-point geometry as before exit rows existed.
+    extra = np.concatenate([[0.0], np.cumsum(pitches - pitch)])
+    slot_starts = [front + row * pitch + extra[row] for row in range(rows + 1)]
     length = float(slot_starts[-1]) + rear
     block_spans, aisle_spans, y = [], [], 0.0
     for index, block_width in enumerate(widths):
@@ -105,7 +109,7 @@ def build_cabin(check: FieldChecker, block, robot: RobotSpec) -> KindGeometry:
             y += aisles[index]
     obstacles, cells = [], []
     for row in range(rows):
-        seat_start = slot_starts[row + 1] - depth
+        seat_start = slot_starts[row] + (pitches[row] - depth)
         obstacles += [rectangle(seat_start, lo, seat_start + depth, hi) for lo, hi in block_spans]
     obstacles += _extra_obstacles(check, block.get("obstacles", []), length, width)
     inset = robot.radius + 0.02  # goal cubes sit where the robot centre can just reach
@@ -115,7 +119,7 @@ def build_cabin(check: FieldChecker, block, robot: RobotSpec) -> KindGeometry:
         xmax = length if first_row + rows_per_cell == rows else float(slot_starts[first_row + rows_per_cell])
         goals = []
         for row in range(first_row, first_row + rows_per_cell):
-            gap_x = (slot_starts[row] + slot_starts[row + 1] - depth) / 2
+            gap_x = slot_starts[row] + (pitches[row] - depth) / 2
             for index, (lo, hi) in enumerate(block_spans):
                 if index == 0:
                     goals.append((gap_x, lo + inset))
