@@ -3,7 +3,7 @@
     python -m cabinbench.run --baseline NAME|pkg.mod:Class --layout NAME|FILE.yaml
         [--episodes N] [--seed S] [--agents K] [--protocol sequential|open]
         [--reward PRESET] [--max-steps N] [--config JSON] [--out DIR]
-        [--render FILE.png|FILE.gif] [--json] [--workers N]
+        [--render FILE.png|FILE.gif] [--json] [--workers N] [--executor local|ray [--address A]]
 
 Plays N independent episodes (episode i is seeded with S + i), appends one record per finished
 episode to ``DIR/<layout>__<baseline>__<protocol>__k<K>__seed<S>-<time>.jsonl`` (trajectories
@@ -13,16 +13,21 @@ the paths written. ``DIR`` defaults to the working folder ``runs/``: the committ
 ``results/runs`` are written by ``results/make_results.sh`` alone. ``--render`` draws the first
 episode: a PNG of its final state (trajectory over the map, covered area shaded: the seed's
 Fig. 5.11) or an animated GIF. ``--reward`` takes a preset of :mod:`cabinbench.rewards`.
+Episodes run in this process, in ``--workers`` local processes, or with ``--executor ray`` as Ray
+tasks on the cluster at ``--address`` (or a local Ray instance); the records are the same.
 
-Exit status: 0 done; 2 a user mistake, in one line on stderr, before any episode is played
+Exit status: 0 done; 1 some episodes failed because their worker died (one line each on stderr;
+the others are recorded); 2 a user mistake, in one line on stderr, before any episode is played
 (unknown baseline or layout: the valid names are given; settings the baseline does not take;
-more robots than the layout's start cell holds; a file or folder that cannot be written); 130
+more robots than the layout's start cell holds; a file or folder that cannot be written; Ray not
+installed, or no cluster at ``--address``); 130
 interrupted by Ctrl-C (finished episodes are kept, and the message counts them on disk and says
 where).
 """
 
 from __future__ import annotations
 
+import contextlib
 import inspect
 import json
 import math
@@ -45,6 +50,7 @@ from .cli import (
     user_errors,
 )
 from .episodes import EpisodeJob, EpisodeResult, run_jobs
+from .executors import EXECUTOR_NAMES, Executor, JobFailure, executors
 from .layout import load_layout
 from .metrics import METRICS, TEAM_METRICS
 from .records import RunWriter, run_header, run_path
@@ -106,7 +112,31 @@ def parse_args(argv: list[str] | None):
     parser.add_argument(
         "--workers", type=positive_int, default=1, help="episodes played in parallel by a local process pool"
     )
+    parser.add_argument(
+        "--executor",
+        choices=EXECUTOR_NAMES,
+        default="local",
+        help="local: this process or --workers processes; ray: Ray tasks (pip install 'cabinbench[ray]')",
+    )
+    parser.add_argument(
+        "--address",
+        help="with --executor ray: the cluster to run on ('auto' or HOST:PORT; default a local Ray instance)",
+    )
     return parser.parse_args(argv)
+
+
+def make_executor(args) -> Executor:
+    """The executor of ``--executor``, started (a user error if it cannot be)."""
+    if args.executor == "local":
+        if args.address is not None:
+            raise UsageError("--address: only --executor ray runs on a cluster")
+        return executors()["local"](args.workers)
+    if args.workers != 1:
+        raise UsageError(
+            "--workers: the local executor's; Ray runs as many episodes at once as the cluster has CPUs"
+        )
+    # The working folder goes with the jobs: layout files and plugin baselines named relative to it resolve.
+    return executors()["ray"](address=args.address, working_dir=str(Path.cwd()))
 
 
 def baseline_settings(cls: type) -> set[str] | None:
@@ -135,20 +165,23 @@ def check_settings(spec: str, config: dict) -> None:
         raise UsageError(f"--config: baseline {spec!r} does not take {', '.join(unknown)}; it takes {takes}")
 
 
-def collect(results, writer: RunWriter, total: int) -> list[EpisodeResult]:
-    """Write each finished episode as it comes; return them."""
-    finished = []
+def collect(results, writer: RunWriter, total: int) -> tuple[list[EpisodeResult], list[JobFailure]]:
+    """Write each finished episode as it comes; return them, and the jobs whose worker died."""
+    finished, failed = [], []
     try:
         with tqdm(total=total, unit="episode", file=sys.stderr, dynamic_ncols=True) as progress:
             for result in results:
+                progress.update()
+                if isinstance(result, JobFailure):
+                    failed.append(result)
+                    continue
                 writer.write(result.job.episode, result.record, result.trajectory)
                 finished.append(result)
                 progress.set_postfix(coverage=f"{result.record['coverage']:.3f}")
-                progress.update()
     finally:
         if hasattr(results, "close"):
             results.close()  # stops the worker pool now rather than at garbage collection
-    return finished
+    return finished, failed
 
 
 def summary_metrics(record: dict) -> list[str]:
@@ -231,13 +264,17 @@ def main(argv: list[str] | None = None) -> int:
         )
         for episode in range(args.episodes)
     ]
+    executor = make_executor(args)
     writer = RunWriter(run_path(args.out, header), header, layout)
     try:
-        finished = collect(run_jobs(jobs, args.workers), writer, len(jobs))
-        if args.render:
+        # What workers and Ray print is a diagnostic (stderr): stdout holds the summary (--json: one object).
+        with executor, contextlib.redirect_stdout(sys.stderr):
+            finished, failed = collect(run_jobs(jobs, executor), writer, len(jobs))
+        if args.render and any(result.job.episode == 0 for result in finished):
             first = next(result for result in finished if result.job.episode == 0)
             save_render(first.trajectory["frames"], args.render)
-        report(args, layout.name, finished, writer)
+        if finished:
+            report(args, layout.name, finished, writer)
     except KeyboardInterrupt:
         kept = writer.episodes_written()
         where = f"{writer.path} (trajectories: {writer.trajectory_path})" if kept else "nothing was written"
@@ -245,7 +282,14 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INTERRUPTED
     finally:
         writer.remove_if_empty()  # a run stopped before its first episode leaves no file
-    return 0
+    for failure in sorted(failed, key=lambda failure: failure.job.episode):
+        job = failure.job
+        print(
+            f"error: episode {job.episode} (seed {job.episode_seed}) failed: {failure.message}; "
+            f"play it again with --seed {job.episode_seed} --episodes 1",
+            file=sys.stderr,
+        )
+    return 1 if failed else 0
 
 
 def report(args, layout_name: str, finished: list[EpisodeResult], writer: RunWriter) -> None:
