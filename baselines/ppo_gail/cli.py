@@ -293,8 +293,6 @@ def train_one(args: argparse.Namespace) -> int:
 
 def sweep(args: argparse.Namespace) -> int:
     """Train every seed of ``--seeds`` with the executor of ``--executor``; the worst exit status."""
-    from cabinbench.baselines.ppo_gail.training import TrainConfig, default_run_dir
-
     several = len(set(args.seeds)) > 1
     refused = [
         (args.seed is not None, "--seed: give the seeds with --seeds alone"),
@@ -313,25 +311,15 @@ def sweep(args: argparse.Namespace) -> int:
         if mistake:
             print(f"error: {message}", file=sys.stderr)
             return EXIT_USAGE
-    jobs = []
-    for seed in dict.fromkeys(args.seeds):
-        # An absolute run directory: a Ray worker's working folder is not this one.
-        run_dir = (
-            Path(args.run_dir)
-            if args.run_dir
-            else default_run_dir(TrainConfig(ablation=args.baseline, seed=seed))
+    # Each seed's run works in this folder (a Ray worker's own is elsewhere): run directories, --keep and
+    # --ship land where a local run would put them.
+    here = str(Path.cwd())
+    jobs = [
+        argparse.Namespace(
+            **{**vars(args), "seeds": None, "seed": seed, "no_progress": True, "workdir": here}
         )
-        jobs.append(
-            argparse.Namespace(
-                **{
-                    **vars(args),
-                    "seeds": None,
-                    "seed": seed,
-                    "run_dir": str(run_dir.resolve()),
-                    "no_progress": True,
-                }
-            )
-        )
+        for seed in dict.fromkeys(args.seeds)
+    ]
     try:
         executor = executors()[args.executor](
             workers=min(len(jobs), os.cpu_count() or 1), address=args.address
@@ -353,7 +341,7 @@ def sweep(args: argparse.Namespace) -> int:
                     job, status = outcome
                     what = "done" if status == 0 else f"exit status {status}"
                 statuses[job.seed] = status
-                print(f"seed {job.seed}: {what} ({job.run_dir})", file=sys.stderr)
+                print(f"seed {job.seed}: {what} ({run_dir(job)})", file=sys.stderr)
     except KeyboardInterrupt:
         statuses[None] = EXIT_INTERRUPTED
     if any(status != 0 for status in statuses.values()):
@@ -369,8 +357,20 @@ def sweep(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_dir(args: argparse.Namespace) -> Path:
+    """The run directory of ``args`` (one seed)."""
+    from cabinbench.baselines.ppo_gail.training import TrainConfig, default_run_dir
+
+    return (
+        Path(args.run_dir)
+        if args.run_dir
+        else default_run_dir(TrainConfig(ablation=args.baseline, seed=args.seed))
+    )
+
+
 def train_seed(args: argparse.Namespace) -> tuple[argparse.Namespace, int]:
     """One seed of a sweep, in a worker: its arguments and exit status."""
+    os.chdir(args.workdir)
     return args, train_one(args)
 
 
