@@ -9,6 +9,9 @@ Measures:
   of 3), on one core and with ``num_workers`` = the machine's cores (this process steps one shard,
   a worker each other);
 - the boustrophedon planner's time to plan ``full_cabin``;
+- seconds per training iteration of every learned baseline's default configuration, split into env
+  (the batched env's steps), rollout (collection, env included) and update (needs torch; a trainer
+  offers this as ``bench_iteration`` beside its ``main``), the ablations beside PPO alone;
 - peers stepped in the same run, so ratios survive machine drift: PettingZoo's Pistonball
   (pymunk physics, like ours; needs pygame) and Gymnasium's CartPole (pure-Python physics, a
   floor for per-step overhead).
@@ -18,6 +21,7 @@ Speed is stated by this command, never asserted by a test.
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import time
@@ -26,9 +30,10 @@ import gymnasium as gym
 import numpy as np
 
 import cabinbench  # noqa: F401  (registers the envs)
-from cabinbench.agents import EpisodeContext, load_baseline
-from cabinbench.cli import ArgumentParser, positive_int, user_errors
+from cabinbench.agents import EpisodeContext, baseline_class, load_baseline
+from cabinbench.cli import ArgumentParser, non_negative_int, positive_int, user_errors
 from cabinbench.layout import load_layout
+from cabinbench.train import trainable_baselines
 
 
 def steps_per_second(env, steps: int, seed: int = 0) -> float:
@@ -96,6 +101,24 @@ def bench_planner(layout: str, baseline: str = "boustrophedon") -> float:
     return min(timings)
 
 
+def bench_training(iterations: int) -> dict[str, dict[str, float]]:
+    """``{baseline: {"env", "rollout", "update", "iteration": seconds per iteration}}`` from every trainer
+    of a registered baseline that offers ``bench_iteration`` ({} without torch or with 0 iterations)."""
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        return {}
+    trainers = (
+        {baseline_class(name).trainer.split(":")[0] for name in trainable_baselines()} if iterations else ()
+    )
+    figures = {}
+    for module in sorted(trainers):
+        measure = getattr(importlib.import_module(module), "bench_iteration", None)
+        if measure is not None:
+            figures.update(measure(iterations))
+    return figures
+
+
 def bench_pistonball(steps: int) -> float | None:
     """Agent-steps/s of PettingZoo's Pistonball (pymunk), or None without pygame."""
     os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
@@ -123,6 +146,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--steps", type=positive_int, default=20000, help="single-env steps per measurement")
     parser.add_argument("--num-envs", type=positive_int, default=256, help="envs in the batched env")
+    parser.add_argument(
+        "--training-iterations",
+        type=non_negative_int,
+        default=3,
+        help="timed training iterations per learned baseline, after one warm-up (0: none)",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     args = parser.parse_args(argv)
     cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else [0]
@@ -142,6 +171,15 @@ def main(argv: list[str] | None = None) -> int:
         "peer_cartpole_steps_per_s": steps_per_second(gym.make("CartPole-v1"), args.steps),
         "peer_pistonball_agent_steps_per_s": bench_pistonball(max(50, args.steps // 200)),
     }
+    training = bench_training(args.training_iterations)
+    for baseline, seconds in training.items():
+        for part, value in seconds.items():
+            results[f"train_{baseline}_{part}_s_per_iteration"] = value
+    if "ppo" in training:  # what curiosity and imitation add to PPO's iteration, measured in this run
+        for baseline, seconds in training.items():
+            results[f"ratio_train_{baseline}_iteration_to_ppo"] = (
+                seconds["iteration"] / training["ppo"]["iteration"]
+            )
     cartpole = results["peer_cartpole_steps_per_s"]
     pistonball = results["peer_pistonball_agent_steps_per_s"]
     results["ratio_a320_cell_to_cartpole"] = results["single_a320_cell_steps_per_s"] / cartpole
@@ -154,6 +192,7 @@ def main(argv: list[str] | None = None) -> int:
         "single_a320_cell_steps_per_s": "target >= 10,000",
         f"batched_a320_cell_agent_steps_per_s_{len(cores)}_workers": "target >= 50,000 on this machine",
         "boustrophedon_plan_full_cabin_s": "target < 1 s",
+        "train_ppo_gail_iteration_s_per_iteration": "target <= 0.6 s",
     }
     for name, value in results.items():
         shown = (
@@ -163,7 +202,7 @@ def main(argv: list[str] | None = None) -> int:
             if value < 100
             else f"{value:,.0f}"
         )
-        print(f"{name:<40} {shown:>16}   {targets.get(name, '')}")
+        print(f"{name:<50} {shown:>16}   {targets.get(name, '')}")
     return 0
 
 

@@ -374,6 +374,14 @@ def train_seed(args: argparse.Namespace) -> tuple[argparse.Namespace, int]:
     return args, train_one(args)
 
 
+def bench_iteration(iterations: int = 3, warmup: int = 1) -> dict[str, dict[str, float]]:
+    """Seconds per training iteration of each ablation, split into env, rollout and update: what
+    ``python -m cabinbench.bench`` asks a trainer for (``cabinbench.baselines.ppo_gail.bench``)."""
+    from cabinbench.baselines.ppo_gail.bench import bench_iteration as measure
+
+    return measure(iterations, warmup)
+
+
 def training_records(config) -> tuple[str, ...]:
     """The files of a run that ``--ship`` and ``--keep`` keep beside its policy."""
     return ("config.json", "metrics.csv", *(("validation.csv",) if config.validation_episodes else ()))
