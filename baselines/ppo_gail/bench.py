@@ -2,7 +2,7 @@
 
 ``python -m cabinbench.bench`` finds this through the trainer (``bench_iteration`` beside ``main`` in
 ``cli.py``). Each ablation trains ``iterations`` iterations of its default (shipped) configuration after
-``warmup`` ones, in one process, and the mean over the timed iterations is reported:
+``warmup`` ones, in one process, taking turns (see ``bench_iteration``):
 
 - ``env``: the batched env's ``step`` (physics, lidar, coverage patch, rewards);
 - ``rollout``: rsl-rl's collection time, the env included (plus the policy's actions, the curiosity and
@@ -49,23 +49,32 @@ class _TimedLog(TrainingLog):
 
 
 def bench_iteration(iterations: int = 3, warmup: int = 1) -> dict[str, dict[str, float]]:
-    """``{ablation: {"env": s, "rollout": s, "update": s, "iteration": s}}``, seconds per iteration."""
-    figures = {}
+    """``{ablation: {"env": s, "rollout": s, "update": s, "total": s}}``: seconds of each ablation's
+    fastest timed iteration. The ablations take turns, one iteration each, so that a machine whose load
+    drifts slows them alike; the fastest of the turns is the one the neighbours disturbed least."""
     with tempfile.TemporaryDirectory() as folder:  # one folder: the GAIL ablations share the demonstrations
+        timed = {}
         for ablation in ABLATIONS:
             config = TrainConfig(ablation=ablation, validation_episodes=0)
             runner, _ = make_runner(config, Path(folder))
-            runner.env = env = _TimedEnv(runner.env)
-            runner.logger = log = _TimedLog(config.num_envs, config.num_envs * config.num_steps_per_env)
-            runner.learn(num_learning_iterations=warmup)
-            env.seconds = 0.0
-            runner.learn(num_learning_iterations=iterations)
-            rollout = sum(collect for collect, _ in log.times[warmup:]) / iterations
-            update = sum(learn for _, learn in log.times[warmup:]) / iterations
-            figures[ablation] = {
-                "env": env.seconds / iterations,
-                "rollout": rollout,
-                "update": update,
-                "iteration": rollout + update,
-            }
-    return figures
+            runner.env = _TimedEnv(runner.env)
+            runner.logger = _TimedLog(config.num_envs, config.num_envs * config.num_steps_per_env)
+            timed[ablation] = (runner, [])
+        for turn in range(warmup + iterations):
+            for runner, iterations_timed in timed.values():
+                env_before = runner.env.seconds
+                runner.learn(num_learning_iterations=1)
+                rollout, update = runner.logger.times[-1]
+                if turn >= warmup:
+                    iterations_timed.append(
+                        {
+                            "env": runner.env.seconds - env_before,
+                            "rollout": rollout,
+                            "update": update,
+                            "total": rollout + update,
+                        }
+                    )
+    return {
+        ablation: min(iterations_timed, key=lambda seconds: seconds["total"])
+        for ablation, (_, iterations_timed) in timed.items()
+    }
