@@ -177,9 +177,7 @@ def main(argv: list[str] | None = None) -> int:
             results[f"train_{baseline}_{part}_s_per_iteration"] = value
     if "ppo" in training:  # what curiosity and imitation add to PPO's iteration, measured in this run
         for baseline, seconds in training.items():
-            results[f"ratio_train_{baseline}_iteration_to_ppo"] = (
-                seconds["iteration"] / training["ppo"]["iteration"]
-            )
+            results[f"ratio_train_{baseline}_to_ppo"] = seconds["total"] / training["ppo"]["total"]
     cartpole = results["peer_cartpole_steps_per_s"]
     pistonball = results["peer_pistonball_agent_steps_per_s"]
     results["ratio_a320_cell_to_cartpole"] = results["single_a320_cell_steps_per_s"] / cartpole
