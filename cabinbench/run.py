@@ -270,8 +270,8 @@ def main(argv: list[str] | None = None) -> int:
         # What workers and Ray print is a diagnostic (stderr): stdout holds the summary (--json: one object).
         with executor, contextlib.redirect_stdout(sys.stderr):
             finished, failed = collect(run_jobs(jobs, executor), writer, len(jobs))
-        if args.render and any(result.job.episode == 0 for result in finished):
-            first = next(result for result in finished if result.job.episode == 0)
+        first = next((result for result in finished if result.job.episode == 0), None)
+        if args.render and first is not None:  # the first episode's worker may have died
             save_render(first.trajectory["frames"], args.render)
         if finished:
             report(args, layout.name, finished, writer)
