@@ -268,7 +268,8 @@ def main(argv: list[str] | None = None) -> int:
     writer = RunWriter(run_path(args.out, header), header, layout)
     try:
         # What workers and Ray print is a diagnostic (stderr): stdout holds the summary (--json: one object).
-        with executor, contextlib.redirect_stdout(sys.stderr):
+        # The executor closes first: Ray's notices (a worker died) may arrive until it has shut down.
+        with contextlib.redirect_stdout(sys.stderr), executor:
             finished, failed = collect(run_jobs(jobs, executor), writer, len(jobs))
         first = next((result for result in finished if result.job.episode == 0), None)
         if args.render and first is not None:  # the first episode's worker may have died
