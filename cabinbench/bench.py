@@ -12,6 +12,9 @@ Measures:
 - generating one cabin layout of each shipped family (mean over fresh indices), loading every
   layout of ``cabin-v1-test``, and the single env's steps/s on a generated layout
   (``cabin-v1-test/0007``, to set beside ``a320_cell``);
+- seconds per training iteration of every learned baseline's default configuration, split into env
+  (the batched env's steps), rollout (collection, env included) and update (needs torch; a trainer
+  offers this as ``bench_iteration`` beside its ``main``), the ablations beside PPO alone;
 - peers stepped in the same run, so ratios survive machine drift: PettingZoo's Pistonball
   (pymunk physics, like ours; needs pygame) and Gymnasium's CartPole (pure-Python physics, a
   floor for per-step overhead).
@@ -21,6 +24,7 @@ Speed is stated by this command, never asserted by a test.
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import time
@@ -29,9 +33,10 @@ import gymnasium as gym
 import numpy as np
 
 import cabinbench  # noqa: F401  (registers the envs)
-from cabinbench.agents import EpisodeContext, load_baseline
-from cabinbench.cli import ArgumentParser, positive_int, user_errors
+from cabinbench.agents import EpisodeContext, baseline_class, load_baseline
+from cabinbench.cli import ArgumentParser, non_negative_int, positive_int, user_errors
 from cabinbench.layout import load_layout
+from cabinbench.train import trainable_baselines
 
 
 def steps_per_second(env, steps: int, seed: int = 0) -> float:
@@ -99,6 +104,24 @@ def bench_planner(layout: str, baseline: str = "boustrophedon") -> float:
     return min(timings)
 
 
+def bench_training(iterations: int) -> dict[str, dict[str, float]]:
+    """``{baseline: {"env", "rollout", "update", "total": seconds per iteration}}`` from every trainer
+    of a registered baseline that offers ``bench_iteration`` ({} without torch or with 0 iterations)."""
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        return {}
+    trainers = (
+        {baseline_class(name).trainer.split(":")[0] for name in trainable_baselines()} if iterations else ()
+    )
+    figures = {}
+    for module in sorted(trainers):
+        measure = getattr(importlib.import_module(module), "bench_iteration", None)
+        if measure is not None:
+            figures.update(measure(iterations))
+    return figures
+
+
 def bench_pistonball(steps: int) -> float | None:
     """Agent-steps/s of PettingZoo's Pistonball (pymunk), or None without pygame."""
     os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
@@ -147,6 +170,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--steps", type=positive_int, default=20000, help="single-env steps per measurement")
     parser.add_argument("--num-envs", type=positive_int, default=256, help="envs in the batched env")
+    parser.add_argument(
+        "--training-iterations",
+        type=non_negative_int,
+        default=3,
+        help="timed training iterations per learned baseline, after one warm-up (0: none)",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     args = parser.parse_args(argv)
     cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else [0]
@@ -170,6 +199,13 @@ def main(argv: list[str] | None = None) -> int:
         "peer_cartpole_steps_per_s": steps_per_second(gym.make("CartPole-v1"), args.steps),
         "peer_pistonball_agent_steps_per_s": bench_pistonball(max(50, args.steps // 200)),
     }
+    training = bench_training(args.training_iterations)
+    for baseline, seconds in training.items():
+        for part, value in seconds.items():
+            results[f"train_{baseline}_{part}_s_per_iteration"] = value
+    if "ppo" in training:  # what curiosity and imitation add to PPO's iteration, measured in this run
+        for baseline, seconds in training.items():
+            results[f"ratio_train_{baseline}_to_ppo"] = seconds["total"] / training["ppo"]["total"]
     cartpole = results["peer_cartpole_steps_per_s"]
     pistonball = results["peer_pistonball_agent_steps_per_s"]
     results["ratio_a320_cell_to_cartpole"] = results["single_a320_cell_steps_per_s"] / cartpole
@@ -186,6 +222,7 @@ def main(argv: list[str] | None = None) -> int:
         "generate_cabin_v1_ood_layout_s": "target <= 0.05 s",
         "load_cabin_v1_test_s": "target <= 5 s",
         "single_cabin_v1_test_0007_steps_per_s": "target: as a320_cell",
+        "train_ppo_gail_total_s_per_iteration": "target <= 0.6 s",
     }
     for name, value in results.items():
         shown = (
@@ -195,7 +232,7 @@ def main(argv: list[str] | None = None) -> int:
             if value < 100
             else f"{value:,.0f}"
         )
-        print(f"{name:<40} {shown:>16}   {targets.get(name, '')}")
+        print(f"{name:<50} {shown:>16}   {targets.get(name, '')}")
     return 0
 
 

@@ -62,6 +62,14 @@ CASES = {
         [*RUN, "--render", "first.jpg"],
         ["argument --render", ".png or .gif"],
     ),
+    "run: --address of the local executor": (
+        [*RUN, "--address", "auto"],
+        ["--address", "only --executor ray runs on a cluster"],
+    ),
+    "run: --workers with Ray": (
+        [*RUN, "--executor", "ray", "--workers", "2"],
+        ["--workers", "the local executor's"],
+    ),
     "complexity: broken layout": (["complexity", "bad.yaml"], ["bad.yaml: field 'kind'", "Fix:"]),
     "complexity: layout not UTF-8": (["complexity", "latin.yaml"], ["latin.yaml", "not UTF-8", "Fix:"]),
     "complexity: layout is a folder": (["complexity", "folder.yaml"], ["folder.yaml", "is a folder", "Fix:"]),
@@ -119,6 +127,18 @@ CASES = {
         ["'random_bounce' does not learn", "trainable baselines: ppo"],
     ),
     "train: unknown option": (["train", "--baseline", "ppo", "--bogus"], ["unrecognized arguments: --bogus"]),
+    "train: --seed and --seeds": (
+        ["train", "--baseline", "ppo", "--seed", "1", "--seeds", "0", "1"],
+        ["--seed", "give the seeds with --seeds alone"],
+    ),
+    "train: one --run-dir for several seeds": (
+        ["train", "--baseline", "ppo", "--seeds", "0", "1", "--run-dir", "here"],
+        ["--run-dir", "each seed of a sweep has its own"],
+    ),
+    "train: --executor without --seeds": (
+        ["train", "--baseline", "ppo", "--executor", "ray"],
+        ["--executor and --address run the seeds of --seeds"],
+    ),
 }
 # cabinbench/train.py hands its arguments to the trainer a baseline declares; this one is that
 # trainer's (baselines/ppo_gail/cli.py), whose plain argparse prints its usage block first.

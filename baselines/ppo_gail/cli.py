@@ -7,6 +7,7 @@
         [--threads N] [--save-interval N] [--validation-episodes N] [--export last|best]
         [--demonstrations FILE.npz ...] [--demo-episodes N] [--demo-action-noise STD]
         [--run-dir DIR] [--resume] [--ship [--ship-dir DIR]] [--keep] [--no-progress]
+        [--seeds S ... [--executor local|ray [--address A]]]
 
 Options not given take the defaults of ``cabinbench.baselines.ppo_gail.training.TrainConfig`` (the shipped
 policies' configuration; with ``--layout`` repeated, one policy trains on all of them, by default
@@ -24,8 +25,15 @@ it from the repository root), where ``python -m cabinbench.run --baseline <basel
 ``config.json``, ``metrics.csv`` and ``validation.csv`` to ``results/training/<baseline>/seed<S>/``: a further
 training run of the same command, which ``results/make_results.sh`` scores into ``results/ablation.md``.
 
-Exit status: 0 done; 2 bad arguments (an unknown baseline: the valid ones are printed) or a run directory that
-cannot be used as asked; 130 interrupted by Ctrl-C (finished checkpoints are kept; resume with ``--resume``).
+``--seeds S ...`` trains one run per seed at once, each exactly as ``--seed S`` would, in its own default run
+directory (one CPU each): in local processes, or with ``--executor ray`` as Ray tasks on the cluster at
+``--address`` (or a local Ray instance; on several nodes the run directories must be on a shared filesystem).
+An interrupted sweep continues with the same command and ``--resume``: each unfinished seed resumes from its
+latest checkpoint, a finished one is only exported again.
+
+Exit status: 0 done (every seed); 1 a seed's worker died; 2 bad arguments (an unknown baseline: the valid
+ones are printed) or a run directory that cannot be used as asked; 130 interrupted by Ctrl-C (finished
+checkpoints are kept; resume with ``--resume``).
 """
 
 from __future__ import annotations
@@ -37,6 +45,8 @@ import shutil
 import sys
 from pathlib import Path
 
+from cabinbench.cli import UsageError
+from cabinbench.executors import EXECUTOR_NAMES, JobFailure, executors
 from cabinbench.rewards import REWARD_PRESETS
 
 EXIT_USAGE, EXIT_INTERRUPTED = 2, 130
@@ -138,6 +148,18 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         "(results/ablation.md)",
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument(
+        "--seeds", type=int, nargs="+", metavar="S", help="train one run per seed at once (instead of --seed)"
+    )
+    parser.add_argument(
+        "--executor",
+        choices=EXECUTOR_NAMES,
+        default="local",
+        help="with --seeds: local processes or Ray tasks",
+    )
+    parser.add_argument(
+        "--address", help="with --executor ray: the cluster ('auto' or HOST:PORT; default local)"
+    )
     args = parser.parse_args(argv)
     if args.algorithm is not None and not isinstance(args.algorithm, dict):
         parser.error("--algorithm must be a JSON object")
@@ -187,6 +209,16 @@ def build_config(args: argparse.Namespace):
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
+    if args.seeds is not None:
+        return sweep(args)
+    if args.executor != "local" or args.address is not None:
+        print("error: --executor and --address run the seeds of --seeds; give --seeds S ...", file=sys.stderr)
+        return EXIT_USAGE
+    return train_one(args)
+
+
+def train_one(args: argparse.Namespace) -> int:
+    """Train the run of ``args`` (one seed); the exit status."""
     if args.baseline not in TRAINABLE:
         print(
             f"error: cannot train baseline {args.baseline!r}; trainable baselines: {', '.join(TRAINABLE)}",
@@ -257,6 +289,97 @@ def main(argv: list[str] | None = None) -> int:
             copy_file(result.run_dir / name, kept / name)
         print(f"kept: {kept} (score it with the loop in results/make_results.sh)")
     return 0
+
+
+def sweep(args: argparse.Namespace) -> int:
+    """Train every seed of ``--seeds`` with the executor of ``--executor``; the worst exit status."""
+    several = len(set(args.seeds)) > 1
+    refused = [
+        (args.seed is not None, "--seed: give the seeds with --seeds alone"),
+        (
+            several and args.run_dir is not None,
+            "--run-dir: each seed of a sweep has its own default run directory",
+        ),
+        (several and args.ship, "--ship: seeds would overwrite each other's shipped policy; ship one seed"),
+        (args.baseline not in TRAINABLE, f"--baseline: trainable baselines: {', '.join(TRAINABLE)}"),
+        (
+            args.executor == "local" and args.address is not None,
+            "--address: only --executor ray runs on a cluster",
+        ),
+    ]
+    for mistake, message in refused:
+        if mistake:
+            print(f"error: {message}", file=sys.stderr)
+            return EXIT_USAGE
+    # Each seed's run works in this folder (a Ray worker's own is elsewhere): run directories, --keep and
+    # --ship land where a local run would put them.
+    here = str(Path.cwd())
+    jobs = [
+        argparse.Namespace(
+            **{**vars(args), "seeds": None, "seed": seed, "no_progress": True, "workdir": here}
+        )
+        for seed in dict.fromkeys(args.seeds)
+    ]
+    try:
+        executor = executors()[args.executor](
+            workers=min(len(jobs), os.cpu_count() or 1), address=args.address
+        )
+    except UsageError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    print(
+        f"training seeds {', '.join(str(job.seed) for job in jobs)} with the {args.executor} executor",
+        file=sys.stderr,
+    )
+    statuses = {}
+    try:
+        with executor:
+            for outcome in executor.map(train_seed, jobs):
+                if isinstance(outcome, JobFailure):
+                    job, status, what = outcome.job, 1, f"failed: {outcome.message}"
+                else:
+                    job, status = outcome
+                    what = "done" if status == 0 else f"exit status {status}"
+                statuses[job.seed] = status
+                print(f"seed {job.seed}: {what} ({run_dir(job)})", file=sys.stderr)
+    except KeyboardInterrupt:
+        statuses[None] = EXIT_INTERRUPTED
+    if any(status != 0 for status in statuses.values()):
+        unfinished = [job.seed for job in jobs if statuses.get(job.seed) != 0]
+        print(
+            f"seeds not finished: {', '.join(map(str, unfinished))}; continue them from their checkpoints "
+            "with the same command and --resume",
+            file=sys.stderr,
+        )
+    for status in (EXIT_INTERRUPTED, EXIT_USAGE, 1):
+        if status in statuses.values():
+            return status
+    return 0
+
+
+def run_dir(args: argparse.Namespace) -> Path:
+    """The run directory of ``args`` (one seed)."""
+    from cabinbench.baselines.ppo_gail.training import TrainConfig, default_run_dir
+
+    return (
+        Path(args.run_dir)
+        if args.run_dir
+        else default_run_dir(TrainConfig(ablation=args.baseline, seed=args.seed))
+    )
+
+
+def train_seed(args: argparse.Namespace) -> tuple[argparse.Namespace, int]:
+    """One seed of a sweep, in a worker: its arguments and exit status."""
+    os.chdir(args.workdir)
+    return args, train_one(args)
+
+
+def bench_iteration(iterations: int = 3, warmup: int = 1) -> dict[str, dict[str, float]]:
+    """Seconds per training iteration of each ablation, split into env, rollout and update: what
+    ``python -m cabinbench.bench`` asks a trainer for (``cabinbench.baselines.ppo_gail.bench``)."""
+    from cabinbench.baselines.ppo_gail.bench import bench_iteration as measure
+
+    return measure(iterations, warmup)
 
 
 def training_records(config) -> tuple[str, ...]:

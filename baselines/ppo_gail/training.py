@@ -399,40 +399,12 @@ def train(
     latest checkpoint (or starts, if there is none). Ctrl-C stops after the finished checkpoints and returns
     with ``interrupted=True``.
     """
-    from rsl_rl.runners import OnPolicyRunner
-
     from cabinbench.baselines.ppo_gail.policy import export_policy
-    from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
 
     run_dir = Path(run_dir) if run_dir is not None else default_run_dir(config)
     checkpoint = prepare_run_dir(config, run_dir, resume)
 
-    torch.set_num_threads(config.threads)
-    torch.manual_seed(config.seed)
-    np.random.seed(config.seed)
-
-    demonstrations = expert_demonstrations(config, run_dir) if config.uses_gail else []
-    batched = BatchedCoverageEnv(config.layouts, config.num_envs, seed=config.seed, **config.env_kwargs)
-    env = RslRlVecEnv(batched)
-    obs_config = batched.example_env.observation_config
-    train_cfg = make_train_cfg(
-        config.ablation,
-        expert_demonstrations=demonstrations,
-        expected_observation_config=obs_config,
-        shaping_columns=shaping_columns(batched.example_env.observation_layout),
-        num_steps_per_env=config.num_steps_per_env,
-        hidden_dims=config.hidden_dims,
-        activation=config.activation,
-        init_noise_std=config.init_noise_std,
-        save_interval=config.save_interval,
-        **config.algorithm,
-    )
-    if config.min_action_std > 0:
-        train_cfg["actor"]["distribution_cfg"]["std_range"] = [config.min_action_std, 1.0e6]
-    with open(run_dir / "rsl_rl.log", "a") as log, contextlib.redirect_stdout(log):
-        runner = OnPolicyRunner(env, train_cfg, log_dir=None, device="cpu")  # prints the models
-    steps_per_iteration = config.num_envs * config.num_steps_per_env
-    runner.logger = TrainingLog(config.num_envs, steps_per_iteration)
+    runner, obs_config = make_runner(config, run_dir)
 
     iteration, train_time = 0, 0.0
     if checkpoint is not None:
@@ -501,6 +473,42 @@ def train(
     summary["exported_iteration"] = exported
     policy_path = export(run_dir / POLICY_FILE, summary)
     return TrainResult(run_dir, policy_path, iteration, train_time, summary)
+
+
+def make_runner(config: TrainConfig, run_dir: Path):
+    """Seed torch and numpy, then build the training envs, the demonstrations (in ``run_dir``) and the
+    rsl-rl runner of ``config``; return the runner and the envs' observation config."""
+    from rsl_rl.runners import OnPolicyRunner
+
+    from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
+
+    torch.set_num_threads(config.threads)
+    torch.manual_seed(config.seed)
+    np.random.seed(config.seed)
+
+    demonstrations = expert_demonstrations(config, run_dir) if config.uses_gail else []
+    batched = BatchedCoverageEnv(config.layouts, config.num_envs, seed=config.seed, **config.env_kwargs)
+    env = RslRlVecEnv(batched)
+    obs_config = batched.example_env.observation_config
+    train_cfg = make_train_cfg(
+        config.ablation,
+        expert_demonstrations=demonstrations,
+        expected_observation_config=obs_config,
+        shaping_columns=shaping_columns(batched.example_env.observation_layout),
+        num_steps_per_env=config.num_steps_per_env,
+        hidden_dims=config.hidden_dims,
+        activation=config.activation,
+        init_noise_std=config.init_noise_std,
+        save_interval=config.save_interval,
+        **config.algorithm,
+    )
+    if config.min_action_std > 0:
+        train_cfg["actor"]["distribution_cfg"]["std_range"] = [config.min_action_std, 1.0e6]
+    with open(run_dir / "rsl_rl.log", "a") as log, contextlib.redirect_stdout(log):
+        runner = OnPolicyRunner(env, train_cfg, log_dir=None, device="cpu")  # prints the models
+    steps_per_iteration = config.num_envs * config.num_steps_per_env
+    runner.logger = TrainingLog(config.num_envs, steps_per_iteration)
+    return runner, obs_config
 
 
 def shaping_columns(layout: dict[str, slice]) -> list[int] | None:
