@@ -21,7 +21,7 @@ from .rosmap import DEFAULT_FREE_THRESH, DEFAULT_OCCUPIED_THRESH, SAVED_FREE, SA
 
 UNKNOWN_GREY = 205
 WALL = 0.15  # m, interior wall thickness
-MAX_STEPS = 20000  # about 2.5 times the steps a 0.35 m robot needs to sweep 150 m² once
+MAX_STEPS = 30000  # the boustrophedon plan of meeting_area takes about 20,000 steps
 
 
 class Floor:

@@ -104,18 +104,27 @@ def nearest_point(points: np.ndarray, point: np.ndarray) -> np.ndarray:
     return points[np.argmin(np.hypot(*(points - point).T))]
 
 
-def raster_clearance(free: np.ndarray, resolution: float) -> np.ndarray:
-    """Distance in metres from each free pixel's centre to the nearest non-free pixel's square (the
-    raster's edge counts as non-free), 0 off the floor: the walls of a raster map are its pixel edges.
+def raster_clearance(free: np.ndarray, resolution: float, at_resolution: float, shape) -> np.ndarray:
+    """Distance in metres from the centre of each pixel of a raster of ``at_resolution`` and
+    ``shape`` (same origin) to the nearest non-free pixel's square of ``free`` (of ``resolution``; the
+    edge of ``free`` counts as non-free), 0 where the pixel under that centre is not free: the walls
+    of a raster map are its pixel edges.
 
-    One distance transform finds the non-free pixel of nearest centre; the distance to its square is
-    within 0.21 pixel of the exact nearest square (exact along rows and columns)."""
+    One distance transform finds, for the map pixel under each centre, the non-free pixel of
+    nearest centre; the distance to its square is within 0.21 map pixel of the exact nearest."""
     padded = np.pad(free, 1, constant_values=False)
     _, (rows, cols) = ndimage.distance_transform_edt(padded, return_indices=True)
-    rows -= np.arange(padded.shape[0], dtype=rows.dtype)[:, None]
-    cols -= np.arange(padded.shape[1], dtype=cols.dtype)[None, :]
-    distance = np.hypot(np.maximum(np.abs(rows) - 0.5, 0.0), np.maximum(np.abs(cols) - 0.5, 0.0))
-    return np.where(free, distance[1:-1, 1:-1] * resolution, 0.0)
+    centre_y = (np.arange(shape[0]) + 0.5) * at_resolution / resolution  # in map pixels
+    centre_x = (np.arange(shape[1]) + 0.5) * at_resolution / resolution
+    under_y = np.minimum(np.floor(centre_y).astype(int), free.shape[0]) + 1  # + 1: the padding
+    under_x = np.minimum(np.floor(centre_x).astype(int), free.shape[1]) + 1
+    nearest_y = rows[np.ix_(under_y, under_x)] - 1.0
+    nearest_x = cols[np.ix_(under_y, under_x)] - 1.0
+    gap_y = np.maximum(np.maximum(nearest_y - centre_y[:, None], centre_y[:, None] - nearest_y - 1), 0.0)
+    gap_x = np.maximum(np.maximum(nearest_x - centre_x[None, :], centre_x[None, :] - nearest_x - 1), 0.0)
+    on_floor = padded[np.ix_(under_y, under_x)]
+    # to the nanometre: a gap drawn to fit the robot exactly should not be decided by rounding
+    return np.where(on_floor, np.round(np.hypot(gap_y, gap_x) * resolution, 9), 0.0)
 
 
 def resample_raster(raster: np.ndarray, resolution: float, new_resolution: float, shape) -> np.ndarray:

@@ -82,7 +82,7 @@ def build_occupancy(check: FieldChecker, block, robot: RobotSpec) -> KindGeometr
         check.fail("occupancy.image", f"{path} has no free pixel", "check negate and the thresholds")
     x0, y0 = origin[0], origin[1]
     floor = resample_raster(map_floor, resolution, RESOLUTION, shape)
-    clearance = resample_raster(raster_clearance(map_floor, resolution), resolution, RESOLUTION, shape)
+    clearance = raster_clearance(map_floor, resolution, RESOLUTION, shape)
     start = largest_region_start(clearance, (x0, y0), robot)
     if start is None:
         check.fail(
