@@ -48,9 +48,10 @@ def pymunk_scan(
 
 
 # at reset the tracking cell shows its exit through the open bound; full_cabin's first cell its goals
-# and bound
+# and bound; office_floor is a building map (an occupancy layout of many wall segments, in buckets)
 @pytest.mark.parametrize(
-    "layout, tags_to_see", [("a320_tracking_cell", {EXIT}), ("full_cabin", {GOAL, BOUND})]
+    "layout, tags_to_see",
+    [("a320_tracking_cell", {EXIT}), ("full_cabin", {GOAL, BOUND}), ("office_floor", set())],
 )
 def test_every_ray_sees_what_pymunk_sees(layout, tags_to_see):
     env = CoverageEnv(layout)
