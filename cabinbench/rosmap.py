@@ -19,6 +19,7 @@ are not floor. Images are 8-bit grey: PGM (binary P5 or ASCII P2) or PNG.
 from __future__ import annotations
 
 import io
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -60,8 +61,16 @@ def open_image(check: FieldChecker, path: Path, field_name: str) -> tuple[Image.
     except OSError as error:
         check.fail(field_name, f"image {path} cannot be read ({error.strerror})", "check the file")
     try:
-        image = Image.open(io.BytesIO(data))
-    except (OSError, ValueError, Image.DecompressionBombError):
+        with warnings.catch_warnings():  # the loader checks the size against the memory it needs
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            image = Image.open(io.BytesIO(data))
+    except Image.DecompressionBombError:
+        check.fail(
+            field_name,
+            f"{path} has more than {2 * Image.MAX_IMAGE_PIXELS:,} pixels, the most Pillow opens",
+            "crop the map to the floor to be cleaned",
+        )
+    except (OSError, ValueError):
         check.fail(field_name, f"{path} is not an image", "give an 8-bit grey PGM or PNG map image")
     if image.mode != "L":
         check.fail(

@@ -80,6 +80,11 @@ CASES = {
             "map_order": ("free above occupied", "free_thresh", ["not below occupied_thresh"]),
             "map_no_free": ("without free pixels", "image", ["has no free pixel"]),
             "map_start": ("start in a wall", "start", ["inside an obstacle"]),
+            "map_huge": (
+                "too large for the machine",
+                "image",
+                ["13000 x 13000 px", "more than this machine's"],
+            ),
         }.items()
     },
     "complexity: ROS map image missing": (["complexity", "map_missing.yaml"], ["field 'image'", "not found"]),
@@ -159,6 +164,7 @@ def write_ros_maps(folder: Path) -> None:
     (folder / "deep.pgm").write_bytes(b"P5\n40 40\n65535\n" + bytes(40 * 40 * 2))
     (folder / "truncated.pgm").write_bytes(b"P5\n40 40\n255\n" + bytes(100))
     Image.fromarray(np.zeros((40, 40), np.uint8)).save(folder / "black.pgm")
+    (folder / "huge.pgm").write_bytes(b"P5\n13000 13000\n255\n" + bytes(10))  # 1 m a pixel: 13 km a side
     plain = "resolution: 0.05\norigin: [0.0, 0.0, 0.0]\n"
     maps = {
         "map_missing": "image: nope.pgm\n" + plain,
@@ -170,6 +176,7 @@ def write_ros_maps(folder: Path) -> None:
         "map_threshold": "image: room.pgm\noccupied_thresh: 1.5\n" + plain,
         "map_order": "image: room.pgm\nfree_thresh: 0.7\noccupied_thresh: 0.65\n" + plain,
         "map_no_free": "image: black.pgm\n" + plain,
+        "map_huge": "image: huge.pgm\nresolution: 1.0\norigin: [0.0, 0.0, 0.0]\n",
         "map_start": "kind: occupancy\nstart: [0.02, 1.0]\noccupancy:\n  image: room.pgm\n"
         "  resolution: 0.05\n  origin: [0.0, 0.0, 0.0]\n",
     }
