@@ -34,7 +34,7 @@ from .rosmap import write_map
 EXPORT_RESOLUTION = 0.01
 COLUMNS = (  # title, width, the row's field and its number format
     ("name", 20, "name", ""),
-    ("kind", 8, "kind", ""),
+    ("kind", 9, "kind", ""),
     ("size (m)", 12, "size", ""),
     ("cells", 5, "cells", ""),
     ("goals", 5, "goals", ""),
