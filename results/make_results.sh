@@ -39,6 +39,13 @@ if $classic; then
   # The seed's random motion as it describes it (§2.2.1, §5.2.3): any new heading, its 3000-step limit.
   run --baseline random_bounce_study --layout a320_cell --protocol sequential --max-steps 3000
 
+  # Classic baselines on the building maps (one cell each, so the protocols coincide): plain coverage.
+  for layout in office_floor mall_corridor meeting_area; do
+    for baseline in random_bounce boustrophedon; do
+      run --baseline "$baseline" --layout "$layout" --protocol open
+    done
+  done
+
   # Teams: K = 1, 2, 4 on the two large layouts (K = 1 is recorded above); the planner in both protocols.
   team_run() { runs "0 100" 5 results/runs "$@"; }
   for layout in full_cabin b777_3col; do
