@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import json
 import os
-import subprocess
-import sys
 from pathlib import Path
 
 os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl's logger imports GitPython
@@ -21,7 +19,7 @@ import pytest
 from cabinbench.agents import EpisodeContext, load_baseline
 from cabinbench.baselines.boustrophedon import Boustrophedon
 from cabinbench.baselines.ppo_gail import cli, differences, training
-from cabinbench.baselines.ppo_gail.policy import tracking_or_cleaning
+from cabinbench.baselines.ppo_gail.policy import read_policy_file, tracking_or_cleaning
 from cabinbench.baselines.ppo_gail.study import STAGES, study_config
 from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.episodes import run_episode
@@ -88,10 +86,13 @@ def test_study_training_checkpoints_exports_and_runs_the_pair_cell_by_cell(tmp_p
         rates = [float(row["learning_rate"]) for row in read_metrics(run_dir / "metrics.csv")]
         assert rates == pytest.approx([3e-4, 2e-4, 1e-4], rel=1e-6)
         # a run stopped early ships its latest checkpoint, labelled with the steps it reached
-        exported = training.export_latest(tiny(stage, iterations=5), run_dir)
-        assert exported.summary["iterations"] == 3 and exported.summary["iterations_planned"] == 5
-        assert exported.summary["timesteps"] == 3 * 64
-        policies[stage] = str(exported.policy_path)
+        (run_dir / "config.json").write_text(json.dumps(tiny(stage, iterations=5).to_dict()))
+        ship = ["--run-dir", str(run_dir), "--export-latest", "--ship", "--ship-dir", str(tmp_path)]
+        assert cli.main(["--baseline", "ppo_gail_study", "--stage", stage, *ship]) == 0
+        reached = json.loads((tmp_path / f"ppo_gail_study_{stage}.training.json").read_text())
+        assert (reached["iterations"], reached["iterations_planned"], reached["timesteps"]) == (3, 5, 3 * 64)
+        assert (tmp_path / f"ppo_gail_study_{stage}.config.json").exists()
+        policies[stage] = str(tmp_path / f"ppo_gail_study_{stage}.pt")
 
     # The pair: the tracking network acts while the current cell is clean, the cleaning network otherwise.
     study = load_baseline("ppo_gail_study", **policies)
@@ -136,9 +137,7 @@ def test_cli_builds_the_study_config_of_the_stage(tmp_path):
 
 def test_the_committed_differences_table_is_the_generated_one(tmp_path):
     out = tmp_path / "differences.md"
-    subprocess.run(
-        [sys.executable, "-m", "cabinbench.baselines.ppo_gail.differences", "--out", str(out)], check=True
-    )
+    assert differences.main(["--out", str(out)]) == 0
     assert out.read_text() == (REPOSITORY / "results" / "differences.md").read_text()
     rows = {row["setting"]: row for row in differences.table_rows()}
     assert rows["GAIL strength"]["ppo_gail"] == "0.02" and rows["GAIL strength"]["ppo_gail_study"] == "0.3"
@@ -148,11 +147,13 @@ def test_the_committed_differences_table_is_the_generated_one(tmp_path):
     )
 
 
-def test_shipped_study_configs_record_the_steps_they_reached():
+def test_the_shipped_pair_is_the_study_config_and_records_the_steps_it_reached():
     checkpoints = REPOSITORY / "baselines" / "ppo_gail" / "checkpoints"
     for stage in STAGES:
-        config_path = checkpoints / f"ppo_gail_study_{stage}.config.json"
-        if not config_path.exists():
-            pytest.skip("ppo_gail_study is not shipped yet")
-        config = training.TrainConfig.from_dict(json.loads(config_path.read_text()))
-        assert config.to_dict() == study_config(stage, iterations=config.iterations).to_dict()
+        name = f"ppo_gail_study_{stage}"
+        config = training.TrainConfig.from_dict(json.loads((checkpoints / f"{name}.config.json").read_text()))
+        assert config.to_dict() == study_config(stage).to_dict()
+        reached = json.loads((checkpoints / f"{name}.training.json").read_text())
+        assert 0 < reached["iterations"] <= reached["iterations_planned"] == config.iterations
+        assert reached["timesteps"] == reached["iterations"] * 2048
+        assert read_policy_file(checkpoints / f"{name}.pt")["training"] == reached

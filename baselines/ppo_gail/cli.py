@@ -12,8 +12,10 @@
 ``ppo_gail_study`` is two networks trained apart, each with ``--stage``: options not given take the study's
 configuration (``cabinbench.baselines.ppo_gail.study``), the run lives in
 ``runs/train/ppo_gail_study_<stage>__seed<S>`` and ``--ship`` installs ``ppo_gail_study_<stage>.pt`` with its
-``.config.json`` beside it. ``--export-latest`` trains nothing: it exports the run's latest checkpoint as its
-``policy.pt`` (its training summary says how many of the planned iterations it had), for ``--ship``.
+``.config.json`` and ``.training.json`` (the training summary: iterations and steps reached of those
+planned, time, final metrics) beside it. ``--export-latest`` trains nothing: it exports the run's latest
+checkpoint as its ``policy.pt`` (its training summary says how many of the planned iterations it had), for
+``--ship``.
 
 Otherwise options not given take the defaults of ``cabinbench.baselines.ppo_gail.training.TrainConfig`` (the
 shipped policies' configuration; with ``--layout`` repeated, one policy trains on all of them, by default
@@ -282,7 +284,9 @@ def main(argv: list[str] | None = None) -> int:
         copy_file(result.policy_path, shipped)
         if args.baseline == STUDY_NAME:  # its networks are no ablation: their records stay beside them
             copy_file(result.run_dir / "config.json", args.ship_dir / f"{name}.config.json")
-            print(f"shipped: {shipped} and its config")
+            reached = args.ship_dir / f"{name}.training.json"  # how far it trained: steps, time, metrics
+            reached.write_text(json.dumps(summary, indent=2) + "\n")
+            print(f"shipped: {shipped}, its config and {reached.name}")
         else:
             records = TRAINING_RECORDS / name
             for record in training_records(config):

@@ -129,7 +129,8 @@ class TrainConfig:
     learning_rate_schedule: str = "fixed"
     """"fixed" keeps PPO's learning rate, clip range and entropy coefficient; "linear" decays them over
     ``iterations`` towards ``LINEAR_DECAY_FINAL``, as ML-Agents' default ``learning_rate_schedule`` does (the
-    study's Table 5.2 gives the *initial* learning rate)."""
+    study's Table 5.2 gives the *initial* learning rate). The schedule is a function of the iteration and
+    ``iterations``: a run resumed with other ``iterations`` follows the new total's."""
     min_action_std: float = 0.25
     """Lower clamp of the policy's std (rsl-rl's ``std_range``; 0 leaves it free): keeps the policy exploring
     while the discriminator pushes the std down (docs/experiments.md)."""
