@@ -5,7 +5,7 @@
 # With `learned`, only the learned baselines are played again (after retraining them): the records of the classic
 # baselines are kept, since nothing they depend on changed.
 set -euo pipefail
-learned_baselines="ppo_gail ppo ppo_icm ppo_gail_only"
+learned_baselines="ppo_gail ppo ppo_icm ppo_gail_only ppo_gail_study"
 if [ $# -gt 1 ] || { [ $# = 1 ] && [ "$1" != learned ]; }; then
   echo "usage: bash results/make_results.sh [learned]" >&2
   exit 2
@@ -58,9 +58,10 @@ if $classic; then
   done
 fi
 
-# Learned policies (shipped checkpoints), zero-shot on all but the training cell.
+# Learned policies (shipped checkpoints), zero-shot on all but the training cell. ppo_gail_study is a pair of
+# networks, ppo_gail_study_cleaning.pt and ppo_gail_study_tracking.pt.
 for baseline in $learned_baselines; do
-  if [ -f "baselines/ppo_gail/checkpoints/$baseline.pt" ]; then
+  if [ -f "baselines/ppo_gail/checkpoints/$baseline.pt" ] || [ -f "baselines/ppo_gail/checkpoints/${baseline}_cleaning.pt" ]; then
     for layout in a320_cell shape_changed b777_3col full_cabin; do
       run --baseline "$baseline" --layout "$layout" --protocol sequential
     done

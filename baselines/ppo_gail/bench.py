@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 from cabinbench.baselines.ppo_gail.algorithm import ABLATIONS
-from cabinbench.baselines.ppo_gail.training import TrainConfig, TrainingLog, make_runner
+from cabinbench.baselines.ppo_gail.training import TrainConfig, TrainingLog, build_runner
 
 
 class _TimedEnv:
@@ -56,7 +56,7 @@ def bench_iteration(iterations: int = 3, warmup: int = 1) -> dict[str, dict[str,
         timed = {}
         for ablation in ABLATIONS:
             config = TrainConfig(ablation=ablation, validation_episodes=0)
-            runner, _ = make_runner(config, Path(folder))
+            runner, _ = build_runner(config, Path(folder))
             runner.env = _TimedEnv(runner.env)
             runner.logger = _TimedLog(config.num_envs, config.num_envs * config.num_steps_per_env)
             timed[ablation] = (runner, [])
