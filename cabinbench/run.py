@@ -296,6 +296,7 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as error:  # a file the class cannot use (a BaselineError is a user error already)
         raise UsageError(f"--baseline {args.baseline}: {error}") from None
 
+    executor = make_executor(args)  # a missing Ray or cluster is refused before any file is written
     writers: dict[str, RunWriter] = {}
     jobs = []
     for position, (name, layout) in enumerate(layouts.items()):
@@ -334,7 +335,6 @@ def main(argv: list[str] | None = None) -> int:
             for episode in range(episodes)
         ]
         writers[name] = RunWriter(run_path(args.out, header), header, layout)
-    executor = make_executor(args)
     try:
         # What workers and Ray print is a diagnostic (stderr): stdout holds the summary (--json: one object).
         # The executor closes first: Ray's notices (a worker died) may arrive until it has shut down.
