@@ -421,7 +421,9 @@ def index_page(suite: str, entries: list[Entry], cite: str, records: int, comman
         "Click a column title to sort by it. Entries marked as submissions were sent in (see the README); "
         '"verified (N)" means N of its episodes were replayed here and matched. '
         '<a href="leaderboard.csv">Download the table (CSV)</a>.</p>',
-        board_table(entries, ""),
+        board_table(entries, "")
+        if entries
+        else '<p class="note">No records outside a suite: see the suites\' boards (the links above).</p>',
         "<h2>Layouts</h2><table><thead><tr><th>layout</th><th>complexity (normalised)</th>"
         "<th>complexity (total)</th>"
         f"</tr></thead><tbody>{layout_rows}</tbody></table>",
@@ -558,6 +560,8 @@ def suite_page(
 
 
 def site_csv(entries: list[Entry]) -> str:
+    if not entries:  # every record is in a suite: the classic table is empty
+        return ""
     table = csv_table([entry.row for entry in entries])
     table.insert(table.columns.get_loc("n_agents") + 1, "entry", [entry.source for entry in entries])
     return table.to_csv(index=False, float_format="%.6g", lineterminator="\n")

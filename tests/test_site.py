@@ -14,7 +14,8 @@ from urllib.parse import unquote, urlsplit
 import pytest
 
 from cabinbench import leaderboard, run
-from cabinbench.leaderboard_site import board_columns, suite_columns
+from cabinbench.leaderboard_site import Entry, board_columns, build_site, suite_columns
+from cabinbench.leaderboard_table import group_rows, summarize_row
 from cabinbench.records import read_records
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -316,3 +317,27 @@ def test_the_suite_page_sorts_and_filters(built):
     assert baselines == sorted(SUITE_BASELINES, reverse=True)
     assert rendered(suite, "#protocol=open").shown == []
     assert len(rendered(suite, "#k=1").shown) == len(SUITE_BASELINES)
+
+
+@needs_chromium
+def test_a_suite_submission_is_a_row_of_the_suite_board(built, tmp_path):
+    """A submission's suite records (as ``leaderboard`` makes its entries: per layout, marked) become
+    rows of the suite's board beside ours, scored the same way; they get no layout pages."""
+    results, _ = built
+    records = leaderboard.records_in(str(results.parent / "runs"), "--runs")
+    ours = records[records["suite"] == SUITE]
+    submitted = [
+        Entry(summarize_row(key, episodes), episodes.assign(source="sent.json"), "submission, unverified")
+        for key, episodes in group_rows(ours)
+    ]
+    site = tmp_path / "site"
+    with pytest.MonkeyPatch.context() as patch:
+        patch.chdir(ROOT)
+        build_site(site, submitted, ours, results / "figures", results, Path("CITATION.cff"), "test")
+    page = rendered(site / f"suite__{SUITE}.html")
+    assert [row["cells"][3] for row in page.rows] == ["cabinbench"] * 2 + ["submission, unverified"] * 2
+    assert page.rows[0]["cells"][4:] == page.rows[2]["cells"][4:]  # the same records, the same numbers
+    shown = rendered(site / f"suite__{SUITE}.html", "#entry=submission").shown
+    assert [row["attributes"]["class"] for row in shown] == ["submission"] * 2
+    assert not list((site / "layouts").glob("*"))
+    assert "No records outside a suite" in (site / "index.html").read_text()
