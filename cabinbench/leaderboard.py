@@ -149,7 +149,8 @@ def main(argv: list[str] | None = None) -> int:
         command = f"python -m cabinbench.leaderboard --runs {args.runs} --out {out} --site DIR"
         entries = [Entry(row, episodes) for row, episodes in own] + submitted
         suites = suite_records(every)
-        suites = suites[suites["suite"] != "classic"]  # the classic suite's records are the index's rows
+        if not suites.empty:  # the classic suite's records are the index's rows
+            suites = suites[suites["suite"] != "classic"]
         pages = build_site(
             args.site, entries, suites, out / "figures", Path(args.training), Path("CITATION.cff"), command
         )
