@@ -520,10 +520,11 @@ def suite_page(
     boards += [
         (source, pd.concat(frames, ignore_index=True)) for (source, _), frames in sorted(per_file.items())
     ]
-    rows, notes, finding_text = [], [], ""
+    rows, scored, notes, finding_text = [], [], [], ""
     for source, episodes in boards:
         found, left_out = suite_rows(episodes)
         rows += [suite_board_row(row, source, linked) for row in found]
+        scored += [(row, source) for row in found]
         notes += left_out
         if source == OWN_ENTRY:
             finding_text = finding(complexity_rows(found, episodes))
@@ -537,7 +538,8 @@ def suite_page(
         "for the exact bounds); IQM over the per-(seed, layout) means; success with its Wilson interval "
         "over distinct episodes; t90 reached: the fraction of episodes that reached 90% coverage. "
         "Click a column title to sort by it. The suite's layouts: "
-        f"<code>python -m cabinbench.suites --png {escape(suite)} FILE</code> draws them.</p>",
+        f"<code>python -m cabinbench.suites --png {escape(suite)} FILE</code> draws them. "
+        f'<a href="{suite_file(suite, "csv")}">Download the table (CSV)</a>.</p>',
         f"<p>Navigation complexity (normalised, the study §4.1) {complexity_range(suite, every)}.</p>",
         sortable_table(suite_columns(), rows, board_filters(protocols, teams)),
     ]
@@ -556,7 +558,28 @@ def suite_page(
         if figure.exists():
             shutil.copyfile(figure, out / "images" / figure.name)
             body.append(figure_html(f"images/{figure.name}", f"{suite}: {kind}", caption))
+    (out / suite_file(suite, "csv")).write_text(suite_csv(scored), encoding="utf-8")
     return page(f"leaderboard: {suite}", "\n".join(body), "", nav, command)
+
+
+def suite_file(suite: str, extension: str) -> str:
+    return f"suite__{safe_name(suite)}.{extension}"
+
+
+def suite_csv(scored: list[tuple[dict, str]]) -> str:
+    """A suite board's rows as CSV: every mean with its interval's bounds."""
+    table = []
+    for row, source in scored:
+        line = {"baseline": row["baseline"], "protocol": row["protocol"], "n_agents": row["n_agents"]}
+        line |= {"entry": source} | {key: row[key] for key in ("policies", "layouts", "episodes")}
+        line["distinct_episodes"] = row["distinct_episodes"]
+        for metric in [*SCORES, "success"]:
+            summary = row[metric]
+            line |= {f"{metric}_mean": summary.mean, f"{metric}_ci_low": summary.low}
+            line[f"{metric}_ci_high"] = summary.high
+        line |= {"coverage_iqm": row["coverage_iqm"], "t90_reached": row["t90_reached"]}
+        table.append(line)
+    return pd.DataFrame(table).to_csv(index=False, float_format="%.6g", lineterminator="\n")
 
 
 def site_csv(entries: list[Entry]) -> str:
@@ -599,7 +622,7 @@ def build_site(
     names = sorted(
         (set(suites["suite"]) if not suites.empty else set()) | {entry.suite for entry in in_suites}
     )
-    pages = {"classic": "index.html"} | {suite: f"suite__{safe_name(suite)}.html" for suite in names}
+    pages = {"classic": "index.html"} | {suite: suite_file(suite, "html") for suite in names}
     nav = "".join(f'<a href="{{root}}{target}">{escape(suite)}</a>' for suite, target in pages.items())
     cite, bib = cite_block(citation)
     shutil.copyfile(citation, out / "CITATION.cff")

@@ -290,6 +290,13 @@ def test_the_suite_page_shows_the_suite_statistics(built):
         assert float(coverage) == pytest.approx(expected, 1e-9)
         markdown = suite_markdown_row(results, baseline)  # seeds, layouts, ..., t90 reached
         assert row["cells"][4:] == markdown[3:]
+    with open(site / f"suite__{SUITE}.csv", newline="") as file:
+        table = {line["baseline"]: line for line in csv.DictReader(file)}
+    for row in page.shown:
+        line = table[row["cells"][0]]
+        assert (line["layouts"], line["episodes"]) == (row["cells"][5], row["cells"][6])
+        coverage = float(column(page, "coverage", [row], suite_columns)[0])
+        assert float(line["coverage_mean"]) == pytest.approx(coverage, 1e-5)
     text = (site / f"suite__{SUITE}.html").read_text()
     assert "Finding: too few layouts" in text  # three layouts: no interval on ρ
     assert "on the 3 layouts run" in text and "layouts of the suite (its manifest)" in text
