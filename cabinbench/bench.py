@@ -12,6 +12,14 @@ Measures:
 - generating one cabin layout of each shipped family (mean over fresh indices), loading every
   layout of ``cabin-v1-test``, and the single env's steps/s on a generated layout
   (``cabin-v1-test/0007``, to set beside ``a320_cell``);
+- seconds per training iteration of every learned baseline's default configuration, split into env
+  (the batched env's steps), rollout (collection, env included) and update (needs torch; a trainer
+  offers this as ``bench_iteration`` beside its ``main``), the ablations beside PPO alone;
+- building maps of real size, drawn by :func:`cabinbench.building_maps.office_floor` as ROS map
+  files: 50 m x 40 m (1000 x 800 px) and 100 m x 100 m (2000 x 2000 px) at 5 cm. For each: the time
+  and peak memory (RSS) of a fresh process that loads it, its complexity's time, and the single
+  env's steps/s on it; the boustrophedon plan on the 1000 x 800 map (stopped after
+  ``BIG_PLAN_LIMIT_S``);
 - peers stepped in the same run, so ratios survive machine drift: PettingZoo's Pistonball
   (pymunk physics, like ours; needs pygame) and Gymnasium's CartPole (pure-Python physics, a
   floor for per-step overhead).
@@ -21,17 +29,40 @@ Speed is stated by this command, never asserted by a test.
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 
 import cabinbench  # noqa: F401  (registers the envs)
-from cabinbench.agents import EpisodeContext, load_baseline
-from cabinbench.cli import ArgumentParser, positive_int, user_errors
+from cabinbench.agents import EpisodeContext, baseline_class, load_baseline
+from cabinbench.building_maps import office_floor, write_building
+from cabinbench.cli import ArgumentParser, non_negative_int, positive_int, user_errors
+from cabinbench.complexity import layout_complexity
 from cabinbench.layout import load_layout
+from cabinbench.train import trainable_baselines
+
+BIG_MAPS = {"map_1000x800": (50.0, 40.0), "map_2000x2000": (100.0, 100.0)}  # metres, at 5 cm a pixel
+# A fresh process loads a map and reports its seconds and peak memory (RSS, GB; the interpreter and
+# imports, about 0.1 GB, included).
+LOAD_IN_FRESH_PROCESS = """
+import resource, sys, time
+from cabinbench.layout import load_layout
+started = time.perf_counter()
+load_layout(sys.argv[1]).coverable_raster
+print(time.perf_counter() - started, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20)
+"""
+PLAN_IN_FRESH_PROCESS = (
+    "import sys; from cabinbench.bench import bench_planner; print(bench_planner(sys.argv[1], repeats=1))"
+)
+BIG_PLAN_LIMIT_S = 300  # the planner's routing is quadratic in the swept units: large maps take long
 
 
 def steps_per_second(env, steps: int, seed: int = 0) -> float:
@@ -80,9 +111,9 @@ def bench_batched(layout: str, num_envs: int, steps: int, num_workers: int, repe
         return steps * num_envs / min(timings)
 
 
-def bench_planner(layout: str, baseline: str = "boustrophedon") -> float:
+def bench_planner(layout: str, baseline: str = "boustrophedon", repeats: int = 3) -> float:
     """Seconds a planning baseline (found by name in the registry) takes to plan a layout: its
-    ``reset``, best of 3."""
+    ``reset``, best of ``repeats`` after a warm-up (none for a single repeat)."""
     loaded = load_layout(layout)
     planner = load_baseline(baseline)
     env = gym.make("CabinBench/Coverage-v0", layout=loaded)
@@ -90,13 +121,63 @@ def bench_planner(layout: str, baseline: str = "boustrophedon") -> float:
     context = EpisodeContext(
         loaded, "sequential", seed=0, observation_layout=env.unwrapped.observation_layout
     )
-    planner.reset(context, observation, info)  # warm-up
+    if repeats > 1:
+        planner.reset(context, observation, info)  # warm-up
     timings = []
-    for _ in range(3):
+    for _ in range(repeats):
         started = time.perf_counter()
         planner.reset(context, observation, info)
         timings.append(time.perf_counter() - started)
     return min(timings)
+
+
+def bench_training(iterations: int) -> dict[str, dict[str, float]]:
+    """``{baseline: {"env", "rollout", "update", "total": seconds per iteration}}`` from every trainer
+    of a registered baseline that offers ``bench_iteration`` ({} without torch or with 0 iterations)."""
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        return {}
+    trainers = (
+        {baseline_class(name).trainer.split(":")[0] for name in trainable_baselines()} if iterations else ()
+    )
+    figures = {}
+    for module in sorted(trainers):
+        measure = getattr(importlib.import_module(module), "bench_iteration", None)
+        if measure is not None:
+            figures.update(measure(iterations))
+    return figures
+
+
+def bench_big_map(name: str, size: tuple[float, float], folder: Path, steps: int, plan: bool) -> dict:
+    """Load (s, peak GB), complexity (s), single-env steps/s and optionally the plan (s) of a drawn map."""
+    path = write_building(folder, name, office_floor(*size))
+    loaded = subprocess.run(
+        [sys.executable, "-c", LOAD_IN_FRESH_PROCESS, str(path)], capture_output=True, text=True, check=True
+    )
+    load_s, load_gb = (float(value) for value in loaded.stdout.split())
+    layout = load_layout(path)
+    started = time.perf_counter()
+    layout_complexity(layout)
+    results = {
+        f"{name}_load_s": load_s,
+        f"{name}_load_peak_gb": load_gb,
+        f"{name}_complexity_s": time.perf_counter() - started,
+        f"single_{name}_steps_per_s": bench_single(str(path), steps),
+    }
+    if plan:  # in a process of its own, stopped after BIG_PLAN_LIMIT_S: None when not done by then
+        try:
+            planned = subprocess.run(
+                [sys.executable, "-c", PLAN_IN_FRESH_PROCESS, str(path)],
+                capture_output=True,
+                text=True,
+                check=True,
+                timeout=BIG_PLAN_LIMIT_S,
+            )
+            results[f"boustrophedon_plan_{name}_s"] = float(planned.stdout)
+        except subprocess.TimeoutExpired:
+            results[f"boustrophedon_plan_{name}_s"] = None
+    return results
 
 
 def bench_pistonball(steps: int) -> float | None:
@@ -147,6 +228,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--steps", type=positive_int, default=20000, help="single-env steps per measurement")
     parser.add_argument("--num-envs", type=positive_int, default=256, help="envs in the batched env")
+    parser.add_argument(
+        "--training-iterations",
+        type=non_negative_int,
+        default=3,
+        help="timed training iterations per learned baseline, after one warm-up (0: none)",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     args = parser.parse_args(argv)
     cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else [0]
@@ -154,6 +241,10 @@ def main(argv: list[str] | None = None) -> int:
     all_cores = bench_batched("a320_cell", args.num_envs, batched_steps, num_workers=len(cores))
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, {cores[0]})  # one core from here on, as the single-env target says
+    maps = {}
+    with tempfile.TemporaryDirectory() as folder:
+        for name, size in BIG_MAPS.items():
+            maps.update(bench_big_map(name, size, Path(folder), args.steps, plan=name == "map_1000x800"))
     results = {
         "single_a320_cell_steps_per_s": bench_single("a320_cell", args.steps),
         "single_full_cabin_steps_per_s": bench_single("full_cabin", args.steps),
@@ -167,9 +258,17 @@ def main(argv: list[str] | None = None) -> int:
         "generate_cabin_v1_ood_layout_s": bench_generation("cabin_v1_ood"),
         "load_cabin_v1_test_s": bench_suite_load("cabin-v1-test"),
         "single_cabin_v1_test_0007_steps_per_s": bench_single("cabin-v1-test/0007", args.steps),
+        **maps,
         "peer_cartpole_steps_per_s": steps_per_second(gym.make("CartPole-v1"), args.steps),
         "peer_pistonball_agent_steps_per_s": bench_pistonball(max(50, args.steps // 200)),
     }
+    training = bench_training(args.training_iterations)
+    for baseline, seconds in training.items():
+        for part, value in seconds.items():
+            results[f"train_{baseline}_{part}_s_per_iteration"] = value
+    if "ppo" in training:  # what curiosity and imitation add to PPO's iteration, measured in this run
+        for baseline, seconds in training.items():
+            results[f"ratio_train_{baseline}_to_ppo"] = seconds["total"] / training["ppo"]["total"]
     cartpole = results["peer_cartpole_steps_per_s"]
     pistonball = results["peer_pistonball_agent_steps_per_s"]
     results["ratio_a320_cell_to_cartpole"] = results["single_a320_cell_steps_per_s"] / cartpole
@@ -186,16 +285,23 @@ def main(argv: list[str] | None = None) -> int:
         "generate_cabin_v1_ood_layout_s": "target <= 0.05 s",
         "load_cabin_v1_test_s": "target <= 5 s",
         "single_cabin_v1_test_0007_steps_per_s": "target: as a320_cell",
+        "train_ppo_gail_total_s_per_iteration": "target <= 0.6 s",
+        "map_1000x800_load_s": "target <= 5 s",
+        "map_1000x800_load_peak_gb": "target <= 1 GB",
+        "map_2000x2000_load_s": "target <= 20 s",
+        "map_2000x2000_load_peak_gb": "target <= 4 GB",
+        "map_1000x800_complexity_s": "target <= 2 s",
+        "map_2000x2000_complexity_s": "target <= 2 s",
+        "single_map_1000x800_steps_per_s": "target >= 5,000",
+        "single_map_2000x2000_steps_per_s": "target >= 5,000",
+        "boustrophedon_plan_map_1000x800_s": f"target <= 10 s (stopped after {BIG_PLAN_LIMIT_S} s)",
     }
     for name, value in results.items():
-        shown = (
-            "not available in this install"
-            if value is None
-            else f"{value:,.4g}"
-            if value < 100
-            else f"{value:,.0f}"
+        unmeasured = (
+            "not done in time" if name.startswith("boustrophedon_plan_map") else "not in this install"
         )
-        print(f"{name:<40} {shown:>16}   {targets.get(name, '')}")
+        shown = unmeasured if value is None else f"{value:,.4g}" if value < 100 else f"{value:,.0f}"
+        print(f"{name:<50} {shown:>16}   {targets.get(name, '')}")
     return 0
 
 

@@ -11,31 +11,26 @@ reset with it and every baseline instance gets it as ``context.seed``. An episod
 reproduced on its own by ``--seed S+i --episodes 1``, and two runs whose seed ranges overlap
 repeat the same episodes (the leaderboard shows episodes and distinct seeds side by side).
 
-:func:`run_jobs` is the one seam between the benchmark and whatever executes episodes: today a
-loop, or a local :class:`concurrent.futures.ProcessPoolExecutor` when ``workers > 1``; a sweep
-that outgrows one machine replaces this function (e.g. with Ray tasks) and nothing else.
+:func:`run_jobs` is the one seam between the benchmark and whatever executes episodes: an
+executor of :mod:`cabinbench.executors` (a loop or a local process pool, or Ray tasks on a
+cluster). Workers get the job, never a result of this process, so every executor gives the same
+records.
 """
 
 from __future__ import annotations
 
-import os
-import signal
-import threading
-import time
 from collections.abc import Iterable, Iterator
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from . import parallel_env
 from .agents import EpisodeContext, load_baseline
-from .cli import EXIT_INTERRUPTED
 from .envs.coverage_env import CoverageEnv
+from .executors import Executor, JobFailure
+from .executors.local import LocalExecutor
 from .layout import Layout, load_layout
 from .render import draw_frame
-
-PARENT_POLL_SECONDS = 0.5  # how often a worker checks that the run that started it is still there
 
 
 @dataclass(frozen=True)
@@ -192,38 +187,10 @@ def run_job(job: EpisodeJob) -> EpisodeResult:
     return EpisodeResult(job, record, trajectory)
 
 
-def _start_worker() -> None:
-    """Run in every worker process as it starts."""
-    # Ctrl-C reaches the whole process group. A worker just stops (its episode is lost anyway);
-    # the parent keeps what is finished. Without this every worker prints a traceback.
-    signal.signal(signal.SIGINT, lambda *_: os._exit(EXIT_INTERRUPTED))
-    # A parent killed outright (kill -9) cannot stop its pool: the workers watch for it themselves.
-    threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
-
-
-def _exit_with_parent(parent: int) -> None:
-    while os.getppid() == parent:  # an orphan is handed to another parent
-        time.sleep(PARENT_POLL_SECONDS)
-    os._exit(EXIT_INTERRUPTED)
-
-
-def run_jobs(jobs: Iterable[EpisodeJob], workers: int = 1) -> Iterator[EpisodeResult]:
-    """Run independent episode jobs, yielding each result as soon as it is finished.
-
-    ``workers <= 1``: in this process, in order. Otherwise a local process pool; results come in
-    completion order (each carries its job). When the consumer stops early, pending jobs are
-    cancelled. Ctrl-C in a terminal also stops the workers at once; a SIGINT sent to the parent
-    alone lets them finish the episodes in hand (not returned) before the process exits. Workers
-    end within ``PARENT_POLL_SECONDS`` of their parent, however it ends (even ``kill -9``).
-    """
-    if workers <= 1:
-        for job in jobs:
-            yield run_job(job)
-        return
-    executor = ProcessPoolExecutor(max_workers=workers, initializer=_start_worker)
-    try:
-        futures = [executor.submit(run_job, job) for job in jobs]
-        for future in as_completed(futures):
-            yield future.result()
-    finally:
-        executor.shutdown(wait=False, cancel_futures=True)
+def run_jobs(
+    jobs: Iterable[EpisodeJob], executor: Executor | None = None
+) -> Iterator[EpisodeResult | JobFailure]:
+    """Run independent episode jobs with ``executor`` (default: a loop in this process), yielding
+    each result as soon as it is finished (in completion order; each carries its job), or a
+    :class:`~cabinbench.executors.JobFailure` for a job whose worker died."""
+    yield from (executor or LocalExecutor()).map(run_job, jobs)

@@ -11,6 +11,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from scipy import ndimage
 
 
 def wrap_angle(angle: float | np.ndarray) -> float | np.ndarray:
@@ -101,3 +102,67 @@ def drop_redundant_points(points: np.ndarray) -> np.ndarray:
 def nearest_point(points: np.ndarray, point: np.ndarray) -> np.ndarray:
     """The one of ``points`` (N, 2) nearest to ``point``."""
     return points[np.argmin(np.hypot(*(points - point).T))]
+
+
+def raster_clearance(free: np.ndarray, resolution: float, at_resolution: float, shape) -> np.ndarray:
+    """Distance in metres from the centre of each pixel of a raster of ``at_resolution`` and
+    ``shape`` (same origin) to the nearest non-free pixel's square of ``free`` (of ``resolution``; the
+    edge of ``free`` counts as non-free), 0 where the pixel under that centre is not free: the walls
+    of a raster map are its pixel edges.
+
+    One distance transform finds, for the map pixel under each centre, the non-free pixel of
+    nearest centre; the distance to its square is within 0.21 map pixel of the exact nearest."""
+    padded = np.pad(free, 1, constant_values=False)
+    _, (rows, cols) = ndimage.distance_transform_edt(padded, return_indices=True)
+    centre_y = (np.arange(shape[0]) + 0.5) * at_resolution / resolution  # in map pixels
+    centre_x = (np.arange(shape[1]) + 0.5) * at_resolution / resolution
+    under_y = np.minimum(np.floor(centre_y).astype(int), free.shape[0]) + 1  # + 1: the padding
+    under_x = np.minimum(np.floor(centre_x).astype(int), free.shape[1]) + 1
+    nearest_y = rows[np.ix_(under_y, under_x)] - 1.0
+    nearest_x = cols[np.ix_(under_y, under_x)] - 1.0
+    gap_y = np.maximum(np.maximum(nearest_y - centre_y[:, None], centre_y[:, None] - nearest_y - 1), 0.0)
+    gap_x = np.maximum(np.maximum(nearest_x - centre_x[None, :], centre_x[None, :] - nearest_x - 1), 0.0)
+    on_floor = padded[np.ix_(under_y, under_x)]
+    # to the nanometre: a gap drawn to fit the robot exactly should not be decided by rounding
+    return np.where(on_floor, np.round(np.hypot(gap_y, gap_x) * resolution, 9), 0.0)
+
+
+def resample_raster(raster: np.ndarray, resolution: float, new_resolution: float, shape) -> np.ndarray:
+    """A raster of ``resolution`` (row 0 the lowest y) at ``new_resolution`` over the same origin, of
+    ``shape``: each new pixel takes the pixel under its centre (False past the raster's edge)."""
+    if abs(resolution - new_resolution) < 1e-12 and raster.shape == tuple(shape):
+        return raster
+    rows = np.floor((np.arange(shape[0]) + 0.5) * new_resolution / resolution).astype(int)
+    cols = np.floor((np.arange(shape[1]) + 0.5) * new_resolution / resolution).astype(int)
+    padded = np.pad(raster, ((0, 1), (0, 1)), constant_values=False)
+    return padded[np.ix_(np.minimum(rows, raster.shape[0]), np.minimum(cols, raster.shape[1]))]
+
+
+def raster_edges(free: np.ndarray, resolution: float, origin: Sequence[float]) -> np.ndarray:
+    """The walls of a raster map: every edge between a free and a non-free pixel (or the raster's
+    edge), straight runs merged into one segment, as an (S, 4) array x0, y0, x1, y1 in metres."""
+    padded = np.pad(free, 1, constant_values=False)
+    # horizontal edges: line k (y = k pixels) lies between rows k - 1 and k; vertical ones likewise
+    horizontal = padded[1:, 1:-1] != padded[:-1, 1:-1]  # (rows + 1, cols)
+    vertical = (padded[1:-1, 1:] != padded[1:-1, :-1]).T  # (cols + 1, rows)
+    segments = []
+    for edges, along_x in ((horizontal, True), (vertical, False)):
+        line, start, end = _runs_per_line(edges)
+        fixed, lo, hi = line * resolution, start * resolution, end * resolution
+        if along_x:
+            segments.append(
+                np.column_stack([lo + origin[0], fixed + origin[1], hi + origin[0], fixed + origin[1]])
+            )
+        else:
+            segments.append(
+                np.column_stack([fixed + origin[0], lo + origin[1], fixed + origin[0], hi + origin[1]])
+            )
+    return np.concatenate(segments)
+
+
+def _runs_per_line(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(line, start, end) of every run of True in each row of ``mask``, end exclusive."""
+    padded = np.pad(mask, ((0, 0), (1, 1)), constant_values=False).astype(np.int8)
+    line, start = np.nonzero(np.diff(padded, axis=1) == 1)
+    _, end = np.nonzero(np.diff(padded, axis=1) == -1)
+    return line, start, end

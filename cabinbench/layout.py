@@ -7,7 +7,9 @@ builds its obstacles from the block of that name:
 - ``grid``: an ASCII occupancy map, ``#`` obstacle, ``.`` free, optional ``S`` start
   (:mod:`cabinbench.layout_grid`, which also says where a map without ``S`` starts);
 - ``polygons``: an outer boundary polygon plus obstacle polygons, in metres
-  (:mod:`cabinbench.layout_polygons`).
+  (:mod:`cabinbench.layout_polygons`);
+- ``occupancy``: a ROS map_server occupancy grid (:mod:`cabinbench.layout_occupancy`). A plain ROS
+  ``map.yaml`` (``image`` and ``resolution``, no ``kind``) is read as an ``occupancy`` block.
 
 Adding a kind is one module and one registration: write ``cabinbench/layout_<kind>.py`` with a
 ``build(check, block, robot)`` that returns a :class:`~cabinbench.layout_fields.KindGeometry`
@@ -40,13 +42,22 @@ import yaml
 from matplotlib.path import Path as PolygonPath
 from scipy import ndimage
 
-from .geometry import world_to_pixel
+from .geometry import resample_raster, world_to_pixel
 from .layout_cabin import CABIN
-from .layout_fields import CONTACT_CLEARANCE, Cell, FieldChecker, LayoutError, LayoutKind, RobotSpec
+from .layout_fields import (
+    CONTACT_CLEARANCE,
+    RESOLUTION,
+    Cell,
+    FieldChecker,
+    LayoutError,
+    LayoutKind,
+    RasterMap,
+    RobotSpec,
+)
 from .layout_grid import GRID
+from .layout_occupancy import OCCUPANCY
 from .layout_polygons import POLYGONS
 
-RESOLUTION = 0.05  # metres per coverage-raster pixel, the seed's map resolution
 LAYOUT_PATH_VARIABLE = "CABINBENCH_LAYOUT_PATH"
 MARKER_RADIUS = 0.08  # goal cubes and exit landmarks, as the lidar sees them
 DEFAULT_SUCCESS_COVERAGE = 0.98  # "all coverable area covered", less the raster's rounding at edges
@@ -84,6 +95,7 @@ class Layout:
     cleared_cells: int  # cells that count as cleaned at reset (the tracking cell starts with one)
     parameters: dict = field(default_factory=dict)  # the kind's own block, as written
     written_map: np.ndarray | None = None  # a grid's map as its author wrote it (True = obstacle)
+    raster: RasterMap | None = None  # a raster kind's map (None: the floor is the polygons)
 
     # ----------------------------------------------------------------------------- geometry
     @cached_property
@@ -94,6 +106,8 @@ class Layout:
     @cached_property
     def walls(self) -> np.ndarray:
         """Every solid edge (boundary and obstacles) as an (S, 4) array of segments."""
+        if self.raster is not None:
+            return self.raster.walls
         rings = [self.boundary, *self.obstacles]
         return np.concatenate([np.hstack([ring, np.roll(ring, -1, axis=0)]) for ring in rings])
 
@@ -130,16 +144,25 @@ class Layout:
     @cached_property
     def free_raster(self) -> np.ndarray:
         """True where the floor is free (inside the boundary, outside every obstacle)."""
-        xs, ys = self.pixel_centres()
-        grid_x, grid_y = np.meshgrid(xs, ys)
-        points = np.column_stack([grid_x.ravel(), grid_y.ravel()])
-        free = PolygonPath(self.boundary).contains_points(points).reshape(grid_x.shape)
-        for polygon in self.obstacles:  # each tested on the pixels of its bounding box only
-            (x0, y0), (x1, y1) = polygon.min(axis=0), polygon.max(axis=0)
-            cols = slice(np.searchsorted(xs, x0 - RESOLUTION), np.searchsorted(xs, x1 + RESOLUTION))
-            rows = slice(np.searchsorted(ys, y0 - RESOLUTION), np.searchsorted(ys, y1 + RESOLUTION))
-            box = np.column_stack([grid_x[rows, cols].ravel(), grid_y[rows, cols].ravel()])
-            free[rows, cols] &= ~PolygonPath(polygon).contains_points(box).reshape(grid_x[rows, cols].shape)
+        return self.raster.floor if self.raster is not None else self.floor_at(RESOLUTION)
+
+    def floor_at(self, resolution: float) -> np.ndarray:
+        """The free raster at any ``resolution`` over the extent: pixels whose centre is on the floor
+        (a raster kind's map pixel under it)."""
+        xmin, ymin, xmax, ymax = self.extent
+        shape = (
+            max(1, math.ceil((ymax - ymin) / resolution - 1e-9)),
+            max(1, math.ceil((xmax - xmin) / resolution - 1e-9)),
+        )
+        if self.raster is not None:
+            return resample_raster(self.raster.map_floor, self.raster.map_resolution, resolution, shape)
+        xs, ys = (
+            xmin + (np.arange(shape[1]) + 0.5) * resolution,
+            ymin + (np.arange(shape[0]) + 0.5) * resolution,
+        )
+        free = _inside(self.boundary, xs, ys)
+        for polygon in self.obstacles:
+            free &= ~_inside(polygon, xs, ys)
         return free
 
     def distance_to_walls(self, points: np.ndarray) -> np.ndarray:
@@ -169,7 +192,10 @@ class Layout:
     def clearance(self) -> np.ndarray:
         """Exact distance in metres from each free pixel centre to the nearest solid edge (0 off
         the floor). Exact, not a distance transform: obstacle edges need not lie on pixel
-        boundaries, and half a pixel of error decides whether a robot fits a legroom gap."""
+        boundaries, and half a pixel of error decides whether a robot fits a legroom gap. A raster
+        kind measures its own on its map (:func:`~cabinbench.geometry.raster_clearance`)."""
+        if self.raster is not None:
+            return self.raster.clearance
         xs, ys = self.pixel_centres()
         grid_x, grid_y = np.meshgrid(xs, ys)
         nearest = self.distance_to_walls(np.column_stack([grid_x.ravel(), grid_y.ravel()]))
@@ -251,7 +277,7 @@ def _point_segment_distances(points: np.ndarray, starts: np.ndarray, ends: np.nd
 
 
 # --------------------------------------------------------------------------------- loading
-LAYOUT_KINDS: dict[str, LayoutKind] = {kind.name: kind for kind in (CABIN, GRID, POLYGONS)}
+LAYOUT_KINDS: dict[str, LayoutKind] = {kind.name: kind for kind in (CABIN, GRID, POLYGONS, OCCUPANCY)}
 COMMON_KEYS = {
     "name",
     "kind",
@@ -348,15 +374,17 @@ def read_layout(path: Path) -> Layout:
 
 def parse_layout(text: str, source: str = "<string>", default_name: str = "layout") -> Layout:
     """Validate layout YAML text and build its geometry; its ``content_hash`` is the text's."""
-    return build_layout(
-        parse_yaml(text, source), source, default_name, hashlib.sha256(text.encode()).hexdigest()[:16]
-    )
+    return build_layout(parse_yaml(text, source), source, default_name, text)
 
 
-def build_layout(spec: dict, source: str, default_name: str, content_hash: str) -> Layout:
-    """Validate a parsed layout spec (the fields of a layout file) and build its geometry."""
-    check = FieldChecker(source)
+def build_layout(spec: dict, source: str, default_name: str, text: str) -> Layout:
+    """Validate a parsed layout spec (the fields of a layout file) and build its geometry; its
+    ``content_hash`` is that of ``text`` (the file's) and of any file the kind reads besides."""
     kinds = ", ".join(LAYOUT_KINDS)
+    plain_ros_map = "kind" not in spec and "image" in spec
+    if plain_ros_map:  # a map_server map.yaml as it is: its fields are an occupancy block
+        spec = {"kind": OCCUPANCY.name, OCCUPANCY.name: spec}
+    check = FieldChecker(source, OCCUPANCY.name if plain_ros_map else "")
     check.known_keys(spec, COMMON_KEYS | set(LAYOUT_KINDS), "")
     kind_name = spec.get("kind")
     if not isinstance(kind_name, str) or kind_name not in LAYOUT_KINDS:
@@ -386,7 +414,7 @@ def build_layout(spec: dict, source: str, default_name: str, content_hash: str) 
         description=check.string(spec.get("description", ""), "description"),
         source=check.string(spec.get("source", ""), "source"),
         path=source,
-        content_hash=content_hash,
+        content_hash=hashlib.sha256(text.encode() + geometry.content).hexdigest()[:16],
         boundary=boundary,
         obstacles=obstacles,
         cells=cells,
@@ -400,6 +428,7 @@ def build_layout(spec: dict, source: str, default_name: str, content_hash: str) 
         cleared_cells=_cleared_cells(check, spec.get("cleared_cells", 0), len(cells)),
         parameters=dict(spec[kind_name]) if isinstance(spec[kind_name], dict) else {"map": spec[kind_name]},
         written_map=geometry.written_map,
+        raster=geometry.raster,
     )
     _validate_geometry(check, layout)
     layout.passages = _build_passages(layout)
@@ -425,6 +454,20 @@ def geometry_hash(layout: Layout) -> str:
         "limits": [layout.max_steps, layout.success_coverage, layout.cleared_cells],
     }
     return hashlib.sha256(json.dumps(canonical, separators=(",", ":")).encode()).hexdigest()[:16]
+
+
+def _inside(polygon: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """Which centres of the grid ``xs`` x ``ys`` lie inside ``polygon`` (rows by ``ys``); only those in
+    its bounding box are tested, each as the whole grid would test it."""
+    (xmin, ymin), (xmax, ymax) = polygon.min(axis=0), polygon.max(axis=0)
+    columns = np.flatnonzero((xs >= xmin - 1e-9) & (xs <= xmax + 1e-9))
+    rows = np.flatnonzero((ys >= ymin - 1e-9) & (ys <= ymax + 1e-9))
+    inside = np.zeros((len(ys), len(xs)), dtype=bool)
+    if len(columns) and len(rows):
+        grid_x, grid_y = np.meshgrid(xs[columns], ys[rows])
+        hits = PolygonPath(polygon).contains_points(np.column_stack([grid_x.ravel(), grid_y.ravel()]))
+        inside[rows[0] : rows[-1] + 1, columns[0] : columns[-1] + 1] = hits.reshape(grid_x.shape)
+    return inside
 
 
 def _cleared_cells(check: FieldChecker, value, cell_count: int) -> int:
@@ -459,7 +502,9 @@ def _validate_geometry(check: FieldChecker, layout: Layout):
     xmin, ymin, xmax, ymax = layout.extent
     if not PolygonPath(layout.boundary).contains_point((x, y)):
         check.fail("start", f"({x}, {y}) is outside the map {layout.extent}", "move the start onto the floor")
-    if any(PolygonPath(polygon).contains_point((x, y)) for polygon in layout.obstacles):
+    if any(PolygonPath(polygon).contains_point((x, y)) for polygon in layout.obstacles) or (
+        layout.raster is not None and not layout.free_raster[layout.to_pixel(x, y)]
+    ):
         check.fail("start", f"({x}, {y}) is inside an obstacle", "move the start onto free floor")
     if not layout.free_raster.any():
         check.fail("<geometry>", "the map has no free floor", "remove obstacles or enlarge the boundary")

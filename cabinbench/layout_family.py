@@ -338,7 +338,7 @@ def _generate(family: Family, index: int, name: str) -> Layout:
     for attempt in range(MAX_ATTEMPTS):
         spec = draw_spec(family, index, attempt)
         try:
-            layout = build_layout(spec, spec["source"], name, content_hash="")
+            layout = build_layout(spec, spec["source"], name, text="")
         except LayoutError as error:
             problems.append(f"{error.field_name}: {error.problem}")
             continue

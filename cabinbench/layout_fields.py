@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 CONTACT_CLEARANCE = 0.01  # metres: a reachable pose keeps this from walls, so covering needs no contact
+RESOLUTION = 0.05  # metres per coverage-raster pixel, the seed's map resolution
 
 
 class LayoutError(ValueError):
@@ -45,10 +46,14 @@ class Cell:
 class FieldChecker:
     """Field validation with error messages that name the file and the field."""
 
-    def __init__(self, source: str):
-        self.source = source
+    def __init__(self, source: str, block_in_file: str = ""):
+        # ``block_in_file``: a kind's block whose fields the file writes at the top level (a plain
+        # ROS map.yaml is an ``occupancy`` block): errors name them as the file spells them
+        self.source, self.block_in_file = source, block_in_file
 
     def fail(self, field_name: str, problem: str, fix: str):
+        if self.block_in_file:
+            field_name = field_name.removeprefix(f"{self.block_in_file}.")
         raise LayoutError(self.source, field_name, problem, fix)
 
     def known_keys(self, mapping: dict, allowed: set[str], prefix: str):
@@ -192,6 +197,18 @@ def rectangle(xmin: float, ymin: float, xmax: float, ymax: float) -> np.ndarray:
     return np.array([[xmin, ymin], [xmax, ymin], [xmax, ymax], [xmin, ymax]], dtype=float)
 
 
+@dataclass(frozen=True)
+class RasterMap:
+    """A raster kind's floor (an occupancy map) as it is, not as polygons: the map, its walls, and
+    what the layout measures on its raster."""
+
+    map_floor: np.ndarray  # bool, the map's pixels (row 0 the lowest y)
+    map_resolution: float  # metres per map pixel
+    walls: np.ndarray  # (S, 4): the edges between floor and non-floor map pixels
+    floor: np.ndarray  # the free raster: at RESOLUTION over the layout's extent
+    clearance: np.ndarray  # metres from each free raster pixel centre to the nearest wall (0 off the floor)
+
+
 @dataclass
 class KindGeometry:
     """What a kind builds from its block: the map, and optionally its cells and a default start."""
@@ -203,6 +220,8 @@ class KindGeometry:
     # a map the author wrote in robot-sized cells (True = obstacle, rows bottom to top): the
     # normalised map complexity is measured on, instead of one rasterised from the geometry
     written_map: np.ndarray | None = None
+    raster: RasterMap | None = None  # a raster kind's map (then ``obstacles`` is empty)
+    content: bytes = b""  # files the layout reads besides its own (a map image): part of its hash
 
 
 @dataclass(frozen=True)

@@ -24,10 +24,10 @@ files only, one report per module:
 The submissions filed in ``--submissions`` (default: ``submissions`` beside ``--runs``) are rows
 of ``leaderboard.md`` and ``.csv`` too, their baseline marked ``(submission, <status>)``.
 
-``--site DIR`` writes the static site instead (:mod:`cabinbench.leaderboard_site`), its figures
-copied from ``<out>/figures``. ``--add FILE`` checks a submission and files it in
-``--submissions``; ``--verify FILE`` replays ``--episodes`` of its episodes
-(:mod:`cabinbench.submissions`).
+``--site DIR`` writes the static site instead (:mod:`cabinbench.leaderboard_site`), the classic
+table and a board per suite, its figures copied from ``<out>/figures``. ``--add FILE`` checks a
+submission and files it in ``--submissions``; ``--verify FILE`` replays ``--episodes`` of its
+episodes (:mod:`cabinbench.submissions`).
 
 Exit status 2, with one line on stderr, when ``--runs`` holds no records or a bad one, or a
 submission is refused; 1 when a verification finds a metric that differs.
@@ -148,8 +148,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.site:
         command = f"python -m cabinbench.leaderboard --runs {args.runs} --out {out} --site DIR"
         entries = [Entry(row, episodes) for row, episodes in own] + submitted
+        suites = suite_records(every)
+        if not suites.empty:  # the classic suite's records are the index's rows
+            suites = suites[suites["suite"] != "classic"]
         pages = build_site(
-            args.site, entries, out / "figures", Path(args.training), Path("CITATION.cff"), command
+            args.site, entries, suites, out / "figures", Path(args.training), Path("CITATION.cff"), command
         )
         print(f"{len(entries)} rows, {len(pages)} pages: {args.site / 'index.html'}")
         return 0

@@ -4,11 +4,15 @@ Plain HTML and CSS with a little JavaScript of our own (``cabinbench/site_files/
 network fetch, so it works opened from ``file://`` and from any static host. From the records
 only, and byte-identical from the same records (no timestamps, sorted everything):
 
-- ``index.html``: the ``classic`` board (and ``suite__<name>.html`` for each other suite in the records):
-  one row per (layout, baseline, protocol, K), with the numbers and intervals of
-  :mod:`cabinbench.leaderboard_table` (the same functions as ``leaderboard.md``), sortable by any
-  column and filterable by protocol, team size, layout and entry; the layouts' complexity; the
-  "cite this" block (BibTeX and CFF from ``CITATION.cff``) and ``leaderboard.csv`` to download;
+- ``index.html``: the ``classic`` board: one row per (layout, baseline, protocol, K), with the
+  numbers and intervals of :mod:`cabinbench.leaderboard_table` (the same functions as
+  ``leaderboard.md``), sortable by any column and filterable by protocol, team size, layout and
+  entry; the layouts' complexity; the "cite this" block (BibTeX and CFF from ``CITATION.cff``) and
+  ``leaderboard.csv`` to download;
+- ``suite__<name>.html`` for each other suite in the records: one row per (baseline, protocol, K)
+  from :func:`~cabinbench.leaderboard_suites.suite_rows` (the suites section of ``leaderboard.md``),
+  sortable and filterable the same way; the suite's complexity range, its three figures (copied
+  from the leaderboard's ``figures/``) and the complexity finding. No page per suite layout;
 - ``layouts/<layout>.html``: the layout's picture and complexity map, and per row its trajectory
   figure (copied from the leaderboard's ``figures/``) and a replay of the stored trajectory;
 - ``baselines/<baseline>.html``: what it is (its docstring, read without importing it), its
@@ -38,10 +42,20 @@ from PIL import Image
 from .agents import registered_baselines
 from .cli import UsageError
 from .complexity import layout_complexity, save_complexity_png
-from .layout import RESOLUTION, available_layouts, load_layout
-from .leaderboard_table import COLUMNS, csv_table, markdown_cell, stored_run
+from .layout import RESOLUTION, LayoutError, available_layouts, load_layout
+from .leaderboard_suites import SCORES, complexity_rows, finding, suite_rows
+from .leaderboard_table import (
+    COLUMNS,
+    csv_table,
+    distinct_cell,
+    layout_complexity_of,
+    markdown_cell,
+    stored_run,
+)
 from .records import safe_name
 from .render import draw_frame, frame_scale
+from .suites import get_suite
+from .suites import summary as suite_summary
 from .world import World
 
 MARKER = ".cabinbench-site"  # a folder holding it was written by this module and may be rebuilt
@@ -101,11 +115,12 @@ def board_columns() -> list[tuple[str, str]]:
         ("layout", "layout"),
         ("complexity", "complexity"),
         ("baseline", "baseline"),
+        ("policy", "policy"),
         ("protocol", "protocol"),
         ("k", "K"),
         ("entry", "entry"),
         ("episodes", "episodes"),
-        ("seeds", "seeds"),
+        ("distinct", "distinct episodes"),
         metrics[0],
         ("coverage_iqm", "coverage IQM"),
         *metrics[1:],
@@ -146,11 +161,12 @@ def board_row(entry: Entry, root: str) -> str:
             f"normalised; total {row['complexity_total']:.2f}",
         ),
         f'<td><a href="{root}{baseline_page_name(row["baseline"])}">{escape(row["baseline"])}</a></td>',
+        f"<td>{escape(row['policy'])}</td>",
         f"<td>{escape(row['protocol'])}</td>",
         number_cell(row["n_agents"], str(row["n_agents"])),
         f"<td>{escape(entry.source)}</td>",
         number_cell(row["episodes"], str(row["episodes"])),
-        number_cell(row["seeds"], str(row["seeds"])),
+        number_cell(row["distinct_episodes"], distinct_cell(row)),
         metric_cell(row["coverage"], COLUMNS["coverage"][1]),
         number_cell(row["coverage_iqm"], f"{row['coverage_iqm']:.3f}"),
         *(metric_cell(row[metric], form) for metric, (_, form) in COLUMNS.items() if metric != "coverage"),
@@ -170,23 +186,34 @@ def filter_select(name: str, title: str, values) -> str:
     return f'<label>{title}<select data-filter="{name}">{options}</select></label>'
 
 
-def board_table(entries: list[Entry], root: str) -> str:
-    headers = "".join(f'<th data-key="{key}">{escape(title)}</th>' for key, title in board_columns())
-    rows = "\n".join(board_row(entry, root) for entry in entries)
-    protocols = sorted({entry.row["protocol"] for entry in entries})
-    teams = sorted({int(entry.row["n_agents"]) for entry in entries})
-    layouts = sorted({entry.row["layout"] for entry in entries})
-    filters = (
-        '<p class="filters">'
-        + filter_select("protocol", "protocol", [(value, value) for value in protocols])
-        + filter_select("k", "team size K", [(str(value), str(value)) for value in teams])
-        + filter_select("layout", "layout", [(value, value) for value in layouts])
-        + filter_select("entry", "entry", [("own", "cabinbench runs"), ("submission", "submissions")])
-        + f'<span id="shown">{len(entries)}</span> of {len(entries)} rows shown</p>'
-    )
+def board_filters(entries_protocols, teams) -> list[str]:
+    """The protocol, team size and entry filters every board has."""
+    return [
+        filter_select("protocol", "protocol", [(value, value) for value in sorted(set(entries_protocols))]),
+        filter_select("k", "team size K", [(str(value), str(value)) for value in sorted(set(teams))]),
+        filter_select("entry", "entry", [("own", "cabinbench runs"), ("submission", "submissions")]),
+    ]
+
+
+def sortable_table(columns: list[tuple[str, str]], rows: list[str], filters: list[str]) -> str:
+    """A board: filters, the count of rows shown, and a table that ``site.js`` sorts by any column."""
+    headers = "".join(f'<th data-key="{key}">{escape(title)}</th>' for key, title in columns)
     return (
-        f'{filters}<table class="board"><thead><tr>{headers}</tr></thead>\n<tbody>\n{rows}\n</tbody></table>'
+        f'<p class="filters">{"".join(filters)}'
+        f'<span id="shown">{len(rows)}</span> of {len(rows)} rows shown</p>'
+        f'<table class="board"><thead><tr>{headers}</tr></thead>\n<tbody>\n'
+        + "\n".join(rows)
+        + "\n</tbody></table>"
     )
+
+
+def board_table(entries: list[Entry], root: str) -> str:
+    layouts = sorted({entry.row["layout"] for entry in entries})
+    filters = board_filters(
+        [entry.row["protocol"] for entry in entries], [int(e.row["n_agents"]) for e in entries]
+    )
+    filters.insert(2, filter_select("layout", "layout", [(value, value) for value in layouts]))
+    return sortable_table(board_columns(), [board_row(entry, root) for entry in entries], filters)
 
 
 def bibtex(citation: dict) -> str:
@@ -388,12 +415,15 @@ def index_page(suite: str, entries: list[Entry], cite: str, records: int, comman
         "Cells are <code>mean ± half-width of the 95% percentile-bootstrap interval</code> over episodes "
         "(hover a cell for the exact bounds; a lone episode has no interval). IQM: interquartile mean. "
         "t90: mean over the episodes that reached 90% coverage [the fraction that did]. "
-        "Seeds: distinct episode seeds. "
+        "Distinct episodes: episodes with the same outcome count once (a deterministic baseline repeats "
+        "one). Policy: a learned baseline's training seed, a row each and one over all seeds. "
         "Complexity: the layout's normalised navigation complexity (the study §4.1). "
         "Click a column title to sort by it. Entries marked as submissions were sent in (see the README); "
         '"verified (N)" means N of its episodes were replayed here and matched. '
         '<a href="leaderboard.csv">Download the table (CSV)</a>.</p>',
-        board_table(entries, ""),
+        board_table(entries, "")
+        if entries
+        else '<p class="note">No records outside a suite: see the suites\' boards (the links above).</p>',
         "<h2>Layouts</h2><table><thead><tr><th>layout</th><th>complexity (normalised)</th>"
         "<th>complexity (total)</th>"
         f"</tr></thead><tbody>{layout_rows}</tbody></table>",
@@ -402,7 +432,159 @@ def index_page(suite: str, entries: list[Entry], cite: str, records: int, comman
     return page(f"leaderboard: {suite}", "\n".join(body), "", nav, command)
 
 
+def suite_columns() -> list[tuple[str, str]]:
+    """(key, title) of every column of a suite's board, in order."""
+    scores = [(metric, metric.replace("_", " ") + (" (s)" if metric == "time" else "")) for metric in SCORES]
+    return [
+        ("baseline", "baseline"),
+        ("protocol", "protocol"),
+        ("k", "K"),
+        ("entry", "entry"),
+        ("seeds", "training seeds"),
+        ("layouts", "layouts"),
+        ("episodes", "episodes"),
+        ("distinct", "distinct episodes"),
+        scores[0],
+        ("coverage_iqm", "coverage IQM"),
+        *scores[1:],
+        ("success", "success [Wilson]"),
+        ("t90_reached", "t90 reached"),
+    ]
+
+
+def suite_board_row(row: dict, source: str, linked: set[str]) -> str:
+    """One row of :func:`~cabinbench.leaderboard_suites.suite_rows`, its cells as in ``leaderboard.md``."""
+    name = escape(row["baseline"])
+    if row["baseline"] in linked:
+        name = f'<a href="{baseline_page_name(row["baseline"])}">{name}</a>'
+    cells = [
+        f"<td>{name}</td>",
+        f"<td>{escape(row['protocol'])}</td>",
+        number_cell(row["n_agents"], str(row["n_agents"])),
+        f"<td>{escape(source)}</td>",
+        *(
+            number_cell(row[key], str(row[key]))
+            for key in ("policies", "layouts", "episodes", "distinct_episodes")
+        ),
+        metric_cell(row["coverage"], SCORES["coverage"]),
+        number_cell(row["coverage_iqm"], f"{row['coverage_iqm']:.3f}"),
+        *(metric_cell(row[metric], form) for metric, form in SCORES.items() if metric != "coverage"),
+        number_cell(row["success"].mean, markdown_cell(row["success"], ".2f", bounds=True)),
+        number_cell(row["t90_reached"], f"{row['t90_reached']:.0%}"),
+    ]
+    entry = "own" if source == OWN_ENTRY else "submission"
+    attributes = f'data-protocol="{escape(row["protocol"])}" data-k="{row["n_agents"]}" data-entry="{entry}"'
+    marked = ' class="submission"' if entry == "submission" else ""
+    return f"<tr{marked} {attributes}>" + "".join(cells) + "</tr>"
+
+
+def complexity_range(suite: str, records: pd.DataFrame) -> str:
+    """The normalised (and total) navigation complexity's range over the layouts run, and over the
+    whole suite as its manifest lists it (when this cabinbench still ships the suite)."""
+    run = [layout_complexity_of(group) for _, group in records.groupby("layout", sort=True)]
+
+    def span(low_high: list[float], total: list[float]) -> str:
+        return f"{low_high[0]:.4f}–{low_high[1]:.4f} (total {total[0]:.2f}–{total[1]:.2f})"
+
+    def bounds(key: str) -> list[float]:
+        return [min(value[key] for value in run), max(value[key] for value in run)]
+
+    text = f"on the {len(run)} layouts run, {span(bounds('normalized'), bounds('total'))}"
+    try:
+        shipped = suite_summary(get_suite(suite))
+    except LayoutError:
+        return text + f"; this cabinbench does not ship suite {escape(suite)}"
+    return (
+        text + f"; over all {shipped['size']} layouts of the suite (its manifest), "
+        f"{span(shipped['complexity_normalized'], shipped['complexity_total'])}"
+    )
+
+
+def suite_page(
+    suite: str,
+    records: pd.DataFrame,
+    submitted: list[Entry],
+    figures: Path,
+    out: Path,
+    linked: set[str],
+    nav: str,
+    command: str,
+) -> str:
+    """A suite's board: one row per (baseline, protocol, K) from :func:`suite_rows` (the suites
+    section of ``leaderboard.md``), its submissions' rows after ours, its complexity, figures and
+    finding. No page per layout: a suite has hundreds."""
+    boards = [(OWN_ENTRY, records)] if not records.empty else []
+    per_file: dict[tuple[str, str], list[pd.DataFrame]] = {}
+    for entry in submitted:
+        per_file.setdefault((entry.source, entry.episodes["source"].iloc[0]), []).append(entry.episodes)
+    boards += [
+        (source, pd.concat(frames, ignore_index=True)) for (source, _), frames in sorted(per_file.items())
+    ]
+    rows, scored, notes, finding_text = [], [], [], ""
+    for source, episodes in boards:
+        found, left_out = suite_rows(episodes)
+        rows += [suite_board_row(row, source, linked) for row in found]
+        scored += [(row, source) for row in found]
+        notes += left_out
+        if source == OWN_ENTRY:
+            finding_text = finding(complexity_rows(found, episodes))
+    every = pd.concat([episodes for _, episodes in boards], ignore_index=True)
+    protocols, teams = every["protocol"], every["n_agents"].astype(int)
+    body = [
+        f"<h1>cabinbench leaderboard: suite {escape(suite)}</h1>",
+        f"<p>{len(rows)} rows from {len(every)} episodes on {every['layout'].nunique()} layouts. "
+        "Scores: the mean over layouts (and training seeds) of per-layout means ± half-width of the "
+        "stratified bootstrap 95% interval (layouts, training seeds and episodes resampled; hover a cell "
+        "for the exact bounds); IQM over the per-(seed, layout) means; success with its Wilson interval "
+        "over distinct episodes; t90 reached: the fraction of episodes that reached 90% coverage. "
+        "Click a column title to sort by it. The suite's layouts: "
+        f"<code>python -m cabinbench.suites --png {escape(suite)} FILE</code> draws them. "
+        f'<a href="{suite_file(suite, "csv")}">Download the table (CSV)</a>.</p>',
+        f"<p>Navigation complexity (normalised, the study §4.1) {complexity_range(suite, every)}.</p>",
+        sortable_table(suite_columns(), rows, board_filters(protocols, teams)),
+    ]
+    if notes:
+        body.append("<ul>" + "".join(f'<li class="note">{escape(note)}</li>' for note in notes) + "</ul>")
+    body.append(
+        f"<h2>Does complexity predict difficulty?</h2><p>{escape(finding_text)}</p>" if finding_text else ""
+    )
+    captions = {
+        "profiles": "performance profiles: the fraction of layouts above each level",
+        "improvement": "probability of improvement P(X > Y) on coverage",
+        "complexity": "navigation complexity against difficulty, one point per layout",
+    }
+    for kind, caption in captions.items():
+        figure = figures / f"suite__{safe_name(suite)}__{kind}.png"
+        if figure.exists():
+            shutil.copyfile(figure, out / "images" / figure.name)
+            body.append(figure_html(f"images/{figure.name}", f"{suite}: {kind}", caption))
+    (out / suite_file(suite, "csv")).write_text(suite_csv(scored), encoding="utf-8")
+    return page(f"leaderboard: {suite}", "\n".join(body), "", nav, command)
+
+
+def suite_file(suite: str, extension: str) -> str:
+    return f"suite__{safe_name(suite)}.{extension}"
+
+
+def suite_csv(scored: list[tuple[dict, str]]) -> str:
+    """A suite board's rows as CSV: every mean with its interval's bounds."""
+    table = []
+    for row, source in scored:
+        line = {"baseline": row["baseline"], "protocol": row["protocol"], "n_agents": row["n_agents"]}
+        line |= {"entry": source} | {key: row[key] for key in ("policies", "layouts", "episodes")}
+        line["distinct_episodes"] = row["distinct_episodes"]
+        for metric in [*SCORES, "success"]:
+            summary = row[metric]
+            line |= {f"{metric}_mean": summary.mean, f"{metric}_ci_low": summary.low}
+            line[f"{metric}_ci_high"] = summary.high
+        line |= {"coverage_iqm": row["coverage_iqm"], "t90_reached": row["t90_reached"]}
+        table.append(line)
+    return pd.DataFrame(table).to_csv(index=False, float_format="%.6g", lineterminator="\n")
+
+
 def site_csv(entries: list[Entry]) -> str:
+    if not entries:  # every record is in a suite: the classic table is empty
+        return ""
     table = csv_table([entry.row for entry in entries])
     table.insert(table.columns.get_loc("n_agents") + 1, "entry", [entry.source for entry in entries])
     return table.to_csv(index=False, float_format="%.6g", lineterminator="\n")
@@ -422,40 +604,51 @@ def prepare(out: Path) -> None:
 
 
 def build_site(
-    out: Path, entries: list[Entry], figures: Path, training: Path, citation: Path, command: str
+    out: Path,
+    entries: list[Entry],
+    suites: pd.DataFrame,
+    figures: Path,
+    training: Path,
+    citation: Path,
+    command: str,
 ) -> list[Path]:
-    """Write the site into ``out``; return its pages."""
+    """Write the site into ``out``; return its pages. ``entries``: the classic rows and every
+    submission's; ``suites``: our records run in a suite other than ``classic``."""
     prepare(out)
     for asset in ASSETS:
         (out / asset).write_bytes(files("cabinbench.site_files").joinpath(asset).read_bytes())
-    suites = sorted({entry.suite for entry in entries}, key=lambda name: (name != "classic", name))
-    # the first board (classic, when there is one) is the index
-    names = {
-        suite: "index.html" if not index else f"suite__{safe_name(suite)}.html"
-        for index, suite in enumerate(suites)
-    }
-    nav = "".join(f'<a href="{{root}}{names[suite]}">{escape(suite)}</a>' for suite in suites)
+    classic = [entry for entry in entries if entry.suite == "classic"]
+    in_suites = [entry for entry in entries if entry.suite != "classic"]
+    names = sorted(
+        (set(suites["suite"]) if not suites.empty else set()) | {entry.suite for entry in in_suites}
+    )
+    pages = {"classic": "index.html"} | {suite: suite_file(suite, "html") for suite in names}
+    nav = "".join(f'<a href="{{root}}{target}">{escape(suite)}</a>' for suite, target in pages.items())
     cite, bib = cite_block(citation)
     shutil.copyfile(citation, out / "CITATION.cff")
     (out / "cabinbench.bib").write_text(bib, encoding="utf-8")
-    (out / "leaderboard.csv").write_text(site_csv(entries), encoding="utf-8")
-    pages = []
-    for suite in suites:
-        board = [entry for entry in entries if entry.suite == suite]
-        records = sum(len(entry.episodes) for entry in board)
-        pages.append(out / names[suite])
-        pages[-1].write_text(index_page(suite, board, cite, records, command, nav), encoding="utf-8")
-    for name in sorted({entry.row["layout"] for entry in entries}):
-        rows = [entry for entry in entries if entry.row["layout"] == name]
-        pages.append(out / layout_page_name(name))
-        pages[-1].write_text(layout_page(name, rows, figures, out, command, nav), encoding="utf-8")
+    (out / "leaderboard.csv").write_text(site_csv(classic), encoding="utf-8")
+    written = [out / "index.html"]
+    records = sum(len(entry.episodes) for entry in classic)
+    written[-1].write_text(index_page("classic", classic, cite, records, command, nav), encoding="utf-8")
+    baselines = sorted({entry.row["baseline"] for entry in classic})
+    for suite in names:
+        own = suites[suites["suite"] == suite] if not suites.empty else suites
+        submitted = [entry for entry in in_suites if entry.suite == suite]
+        written.append(out / pages[suite])
+        text = suite_page(suite, own, submitted, figures, out, set(baselines), nav, command)
+        written[-1].write_text(text, encoding="utf-8")
+    for name in sorted({entry.row["layout"] for entry in classic}):
+        rows = [entry for entry in classic if entry.row["layout"] == name]
+        written.append(out / layout_page_name(name))
+        written[-1].write_text(layout_page(name, rows, figures, out, command, nav), encoding="utf-8")
     curves = {}
-    for baseline in sorted({entry.row["baseline"] for entry in entries}):
+    for baseline in baselines:
         figure = figures / f"training__{safe_name(baseline)}.png"
         if (training / baseline / "metrics.csv").exists() and figure.exists():
             curves[baseline] = f"images/{figure.name}"
             shutil.copyfile(figure, out / curves[baseline])
-        rows = [entry for entry in entries if entry.row["baseline"] == baseline]
-        pages.append(out / baseline_page_name(baseline))
-        pages[-1].write_text(baseline_page(baseline, rows, curves, command, nav), encoding="utf-8")
-    return pages
+        rows = [entry for entry in classic if entry.row["baseline"] == baseline]
+        written.append(out / baseline_page_name(baseline))
+        written[-1].write_text(baseline_page(baseline, rows, curves, command, nav), encoding="utf-8")
+    return written

@@ -4,6 +4,9 @@ pymunk's ``segment_query_first`` costs about 3 µs a ray, so 64 rays would domin
 this kernel casts all rays of a robot in a few microseconds. It sees the same geometry pymunk
 collides with (walls and bounds as segments) plus the markers and other robots as discs, and
 reports for each ray the distance and the tag of the nearest hit.
+
+A building map has tens of thousands of wall segments; a scan reads only those in the squares of a
+:class:`SegmentGrid` (buckets of :data:`GRID_CELL` metres) within the lidar's range.
 """
 
 from __future__ import annotations
@@ -16,6 +19,67 @@ from numba import njit
 
 TAGS = ("obstacle", "bound", "goal", "exit", "robot")  # one-hot order in observations
 NO_HIT, OBSTACLE, BOUND, GOAL, EXIT, ROBOT = 0, 1, 2, 3, 4, 5
+GRID_CELL = 1.0  # metres: a scan of 3.5 m range reads 8 x 8 buckets
+
+
+@dataclass(frozen=True)
+class SegmentGrid:
+    """Which segments cross each square of a grid over their extent: bucket ``b`` (row-major) holds
+    ``items[starts[b]:starts[b + 1]]``. ``meta`` is [x0, y0, cell size, rows, cols]."""
+
+    meta: np.ndarray
+    starts: np.ndarray
+    items: np.ndarray
+
+    @classmethod
+    def of(cls, segments: np.ndarray, cell: float = GRID_CELL) -> SegmentGrid:
+        x0 = min(segments[:, 0].min(), segments[:, 2].min()) if len(segments) else 0.0
+        y0 = min(segments[:, 1].min(), segments[:, 3].min()) if len(segments) else 0.0
+        x1 = max(segments[:, 0].max(), segments[:, 2].max()) if len(segments) else 0.0
+        y1 = max(segments[:, 1].max(), segments[:, 3].max()) if len(segments) else 0.0
+        rows, cols = int((y1 - y0) // cell) + 1, int((x1 - x0) // cell) + 1
+        meta = np.array([x0, y0, cell, rows, cols], dtype=np.float64)
+        starts, items = _fill_buckets(np.ascontiguousarray(segments, dtype=np.float64), meta)
+        return cls(meta, starts, items)
+
+
+@njit(cache=True)
+def _bucket_range(a, b, origin, cell, count):
+    """First and last bucket index along one axis that the interval [a, b] touches."""
+    lo, hi = min(a, b), max(a, b)
+    return max(0, min(count - 1, int((lo - origin) // cell))), max(
+        0, min(count - 1, int((hi - origin) // cell))
+    )
+
+
+@njit(cache=True)
+def _segment_buckets(segments, meta, s):
+    """Bucket rows r0..r1 and columns c0..c1 that segment ``s``'s bounding box touches."""
+    x0, y0, cell, rows, cols = meta[0], meta[1], meta[2], int(meta[3]), int(meta[4])
+    c0, c1 = _bucket_range(segments[s, 0], segments[s, 2], x0, cell, cols)
+    r0, r1 = _bucket_range(segments[s, 1], segments[s, 3], y0, cell, rows)
+    return r0, r1, c0, c1
+
+
+@njit(cache=True)
+def _fill_buckets(segments, meta):
+    """Each segment goes into every bucket its bounding box touches: count, then fill."""
+    cols = int(meta[4])
+    counts = np.zeros(int(meta[3]) * cols + 1, dtype=np.int64)
+    for s in range(segments.shape[0]):
+        r0, r1, c0, c1 = _segment_buckets(segments, meta, s)
+        for r in range(r0, r1 + 1):
+            counts[r * cols + c0 + 1 : r * cols + c1 + 2] += 1
+    starts = np.cumsum(counts)
+    items = np.empty(starts[-1], dtype=np.int64)
+    fill = starts[:-1].copy()
+    for s in range(segments.shape[0]):
+        r0, r1, c0, c1 = _segment_buckets(segments, meta, s)
+        for r in range(r0, r1 + 1):
+            for bucket in range(r * cols + c0, r * cols + c1 + 1):
+                items[fill[bucket]] = s
+                fill[bucket] += 1
+    return starts, items
 
 
 @dataclass(frozen=True)
@@ -44,6 +108,9 @@ def cast_rays(
     segments,
     segment_tags,
     segment_on,
+    grid_meta,
+    grid_starts,
+    grid_items,
     circles,
     circle_tags,
     circle_on,
@@ -52,28 +119,36 @@ def cast_rays(
 ):
     """Fill ``distances`` (max_range where nothing is hit) and ``tags`` for one robot.
 
-    ``segments`` is (S, 4) [x0, y0, x1, y1]; ``circles`` is (C, 3) [x, y, radius]. Entries whose
-    ``*_on`` flag is False are ignored, as is any disc containing the ray origin (the robot itself,
-    or a marker it stands on).
+    ``segments`` is (S, 4) [x0, y0, x1, y1], bucketed by ``grid_*`` (a :class:`SegmentGrid` of
+    them); ``circles`` is (C, 3) [x, y, radius]. Entries whose ``*_on`` flag is False are ignored,
+    as is any disc containing the ray origin (the robot itself, or a marker it stands on).
     """
-    # Cull once per scan: only primitives within range can be hit by any ray.
+    # Cull once per scan: only segments in the buckets within range, and of those only the ones
+    # within range, can be hit by any ray.
     near_segments = np.empty(segments.shape[0], dtype=np.int64)
+    seen = np.zeros(segments.shape[0], dtype=np.bool_)
     n_near = 0
-    for s in range(segments.shape[0]):
-        if not segment_on[s]:
-            continue
-        ax, ay, bx, by = segments[s, 0], segments[s, 1], segments[s, 2], segments[s, 3]
-        ex, ey = bx - ax, by - ay
-        length_sq = ex * ex + ey * ey
-        t = 0.0 if length_sq == 0.0 else min(1.0, max(0.0, ((x - ax) * ex + (y - ay) * ey) / length_sq))
-        dx, dy = ax + t * ex - x, ay + t * ey - y
-        if dx * dx + dy * dy <= max_range * max_range:
-            near_segments[n_near] = s
-            n_near += 1
+    gx, gy, cell, rows, cols = grid_meta[0], grid_meta[1], grid_meta[2], int(grid_meta[3]), int(grid_meta[4])
+    c0, c1 = _bucket_range(x - max_range, x + max_range, gx, cell, cols)
+    r0, r1 = _bucket_range(y - max_range, y + max_range, gy, cell, rows)
+    for r in range(r0, r1 + 1):
+        for k in range(grid_starts[r * cols + c0], grid_starts[r * cols + c1 + 1]):
+            s = grid_items[k]
+            if seen[s] or not segment_on[s]:
+                continue
+            seen[s] = True
+            ax, ay, bx, by = segments[s, 0], segments[s, 1], segments[s, 2], segments[s, 3]
+            ex, ey = bx - ax, by - ay
+            length_sq = ex * ex + ey * ey
+            t = 0.0 if length_sq == 0.0 else min(1.0, max(0.0, ((x - ax) * ex + (y - ay) * ey) / length_sq))
+            dx, dy = ax + t * ex - x, ay + t * ey - y
+            if dx * dx + dy * dy <= max_range * max_range:
+                near_segments[n_near] = s
+                n_near += 1
     for r in range(ray_angles.shape[0]):
         angle = heading + ray_angles[r]
         dx, dy = math.cos(angle), math.sin(angle)
-        best, best_tag = max_range, NO_HIT
+        best, best_tag, best_segment = max_range, NO_HIT, -1
         for k in range(n_near):
             s = near_segments[k]
             ax, ay = segments[s, 0], segments[s, 1]
@@ -84,8 +159,10 @@ def cast_rays(
             wx, wy = ax - x, ay - y
             distance = (wx * ey - wy * ex) / denominator
             along = (wx * dy - wy * dx) / denominator
-            if 0.0 <= distance < best and 0.0 <= along <= 1.0:
-                best, best_tag = distance, segment_tags[s]
+            # of segments hit at the same distance (a corner) the first in ``segments`` counts,
+            # whatever order the buckets gave them in
+            if 0.0 <= distance <= best and 0.0 <= along <= 1.0 and (distance < best or s < best_segment):
+                best, best_tag, best_segment = distance, segment_tags[s], s
         for c in range(circles.shape[0]):
             if not circle_on[c]:
                 continue

@@ -71,6 +71,9 @@ def write_observation(
     segments,
     segment_tags,
     segment_on,
+    grid_meta,
+    grid_starts,
+    grid_items,
     circles,
     circle_tags,
     circle_on,
@@ -78,8 +81,9 @@ def write_observation(
     velocity_at,
 ):
     """The lidar and velocity parts of robot ``index``'s observation, in one compiled call: its scan
-    (its own disc contains the ray origin, so the cast skips it) with range ``noise`` added (empty:
-    none), then its velocities (``velocity_at``: where the velocity part starts). The last
+    (``segments`` bucketed by ``grid_*``, a :class:`~cabinbench.lidar.SegmentGrid`; its own disc
+    contains the ray origin, so the cast skips it) with range ``noise`` added (empty: none), then its
+    velocities (``velocity_at``: where the velocity part starts). The last
     ``len(poses)`` discs of ``circles`` are the robots: they are placed at ``poses`` first."""
     first_robot = circles.shape[0] - poses.shape[0]
     for robot in range(poses.shape[0]):
@@ -95,6 +99,9 @@ def write_observation(
         segments,
         segment_tags,
         segment_on,
+        grid_meta,
+        grid_starts,
+        grid_items,
         circles,
         circle_tags,
         circle_on,

@@ -21,7 +21,7 @@ from numba import njit
 from .coverage import CoverageRaster
 from .geometry import distances_to_segments
 from .layout import MARKER_RADIUS, Layout
-from .lidar import BOUND, EXIT, GOAL, OBSTACLE, ROBOT
+from .lidar import BOUND, EXIT, GOAL, OBSTACLE, ROBOT, SegmentGrid
 from .physics import Physics
 
 if TYPE_CHECKING:
@@ -50,6 +50,7 @@ class CellProtocol:
             offset += len(passage.bounds)
         self.segments = np.ascontiguousarray(np.concatenate(segment_blocks), dtype=np.float64)
         self.segment_tags = np.concatenate(tags).astype(np.int8)
+        self.segment_grid = SegmentGrid.of(self.segments)
         # Discs: goals, then exits, then robots (placed by the observation writer).
         goals = layout.goals
         self.goal_cell = np.concatenate(

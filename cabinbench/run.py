@@ -4,7 +4,8 @@
         | --suite SUITE [--layouts K] [--episodes-per-layout N]) [--start random|fixed]
         [--seed S] [--agents K] [--protocol sequential|open]
         [--reward PRESET] [--max-steps N] [--config JSON] [--out DIR]
-        [--render FILE.png|FILE.gif] [--json] [--workers N] [--submission FILE.json]
+        [--render FILE.png|FILE.gif] [--json] [--workers N] [--executor local|ray [--address A]]
+        [--submission FILE.json]
 
 Plays N independent episodes (episode i is seeded with S + i), appends one record per finished
 episode to ``DIR/<layout>__<baseline>__<protocol>__k<K>__seed<S>-<time>.jsonl`` (trajectories
@@ -22,16 +23,21 @@ episode: a PNG of its final state (trajectory over the map, covered area shaded:
 Fig. 5.11) or an animated GIF. ``--reward`` takes a preset of :mod:`cabinbench.rewards`.
 ``--submission FILE`` (with ``--suite``) also writes the run's records as one submission file for
 the leaderboard (:mod:`cabinbench.submissions`).
+Episodes run in this process, in ``--workers`` local processes, or with ``--executor ray`` as Ray
+tasks on the cluster at ``--address`` (or a local Ray instance); the records are the same.
 
-Exit status: 0 done; 2 a user mistake, in one line on stderr, before any episode is played
+Exit status: 0 done; 1 some episodes failed because their worker died (one line each on stderr;
+the others are recorded); 2 a user mistake, in one line on stderr, before any episode is played
 (unknown baseline or layout: the valid names are given; settings the baseline does not take;
-more robots than the layout's start cell holds; a file or folder that cannot be written); 130
+more robots than the layout's start cell holds; a file or folder that cannot be written; Ray not
+installed, or no cluster at ``--address``); 130
 interrupted by Ctrl-C (finished episodes are kept, and the message counts them on disk and says
 where).
 """
 
 from __future__ import annotations
 
+import contextlib
 import inspect
 import json
 import math
@@ -54,6 +60,7 @@ from .cli import (
     user_errors,
 )
 from .episodes import EpisodeJob, EpisodeResult, run_jobs
+from .executors import EXECUTOR_NAMES, Executor, JobFailure, executors
 from .layout import load_layout
 from .metrics import METRICS, TEAM_METRICS
 from .records import RunWriter, run_header, run_path
@@ -133,7 +140,31 @@ def parse_args(argv: list[str] | None):
         type=output_file(".json"),
         help="with --suite: write the records as a submission (python -m cabinbench.leaderboard --add FILE)",
     )
+    parser.add_argument(
+        "--executor",
+        choices=EXECUTOR_NAMES,
+        default="local",
+        help="local: this process or --workers processes; ray: Ray tasks (pip install 'cabinbench[ray]')",
+    )
+    parser.add_argument(
+        "--address",
+        help="with --executor ray: the cluster to run on ('auto' or HOST:PORT; default a local Ray instance)",
+    )
     return parser.parse_args(argv)
+
+
+def make_executor(args) -> Executor:
+    """The executor of ``--executor``, started (a user error if it cannot be)."""
+    if args.executor == "local":
+        if args.address is not None:
+            raise UsageError("--address: only --executor ray runs on a cluster")
+        return executors()["local"](args.workers)
+    if args.workers != 1:
+        raise UsageError(
+            "--workers: the local executor's; Ray runs as many episodes at once as the cluster has CPUs"
+        )
+    # The working folder goes with the jobs: layout files and plugin baselines named relative to it resolve.
+    return executors()["ray"](address=args.address, working_dir=str(Path.cwd()))
 
 
 def baseline_settings(cls: type) -> set[str] | None:
@@ -162,20 +193,26 @@ def check_settings(spec: str, config: dict) -> None:
         raise UsageError(f"--config: baseline {spec!r} does not take {', '.join(unknown)}; it takes {takes}")
 
 
-def collect(results, writers: dict[str, RunWriter], total: int) -> list[EpisodeResult]:
-    """Write each finished episode as it comes, to its layout's writer; return them."""
-    finished = []
+def collect(
+    results, writers: dict[str, RunWriter], total: int
+) -> tuple[list[EpisodeResult], list[JobFailure]]:
+    """Write each finished episode as it comes, to its layout's writer; return them, and the jobs
+    whose worker died."""
+    finished, failed = [], []
     try:
         with tqdm(total=total, unit="episode", file=sys.stderr, dynamic_ncols=True) as progress:
             for result in results:
+                progress.update()
+                if isinstance(result, JobFailure):
+                    failed.append(result)
+                    continue
                 writers[result.job.layout].write(result.job.episode, result.record, result.trajectory)
                 finished.append(result)
                 progress.set_postfix(coverage=f"{result.record['coverage']:.3f}")
-                progress.update()
     finally:
         if hasattr(results, "close"):
             results.close()  # stops the worker pool now rather than at garbage collection
-    return finished
+    return finished, failed
 
 
 def summary_metrics(record: dict) -> list[str]:
@@ -259,6 +296,7 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as error:  # a file the class cannot use (a BaselineError is a user error already)
         raise UsageError(f"--baseline {args.baseline}: {error}") from None
 
+    executor = make_executor(args)  # a missing Ray or cluster is refused before any file is written
     writers: dict[str, RunWriter] = {}
     jobs = []
     for position, (name, layout) in enumerate(layouts.items()):
@@ -298,12 +336,16 @@ def main(argv: list[str] | None = None) -> int:
         ]
         writers[name] = RunWriter(run_path(args.out, header), header, layout)
     try:
-        finished = collect(run_jobs(jobs, args.workers), writers, len(jobs))
-        if args.render:
-            first = next(result for result in finished if result.job == jobs[0])
+        # What workers and Ray print is a diagnostic (stderr): stdout holds the summary (--json: one object).
+        # The executor closes first: Ray's notices (a worker died) may arrive until it has shut down.
+        with contextlib.redirect_stdout(sys.stderr), executor:
+            finished, failed = collect(run_jobs(jobs, executor), writers, len(jobs))
+        first = next((result for result in finished if result.job == jobs[0]), None)
+        if args.render and first is not None:  # the first episode's worker may have died
             save_render(first.trajectory["frames"], args.render)
-        report(args, suite or layouts[names[0]].name, finished, list(writers.values()))
-        if args.submission:
+        if finished:
+            report(args, suite or layouts[names[0]].name, finished, list(writers.values()))
+        if args.submission and not failed:
             records = [
                 json.loads(line)
                 for writer in writers.values()
@@ -324,7 +366,15 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         for writer in writers.values():
             writer.remove_if_empty()  # a run stopped before its first episode leaves no file
-    return 0
+    for failure in sorted(failed, key=lambda failure: (failure.job.layout, failure.job.episode)):
+        job = failure.job
+        print(
+            f"error: episode {job.episode} of {job.layout} (seed {job.episode_seed}) failed: "
+            f"{failure.message}; play it again with --layout {job.layout} --seed {job.episode_seed} "
+            "--episodes 1",
+            file=sys.stderr,
+        )
+    return 1 if failed else 0
 
 
 def report(args, name: str, finished: list[EpisodeResult], writers: list[RunWriter]) -> None:

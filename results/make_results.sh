@@ -5,7 +5,7 @@
 # With `learned`, only the learned baselines are played again (after retraining them): the records of the classic
 # baselines are kept, since nothing they depend on changed.
 set -euo pipefail
-learned_baselines="ppo_gail ppo ppo_icm ppo_gail_only"
+learned_baselines="ppo_gail ppo ppo_icm ppo_gail_only ppo_gail_study"
 if [ $# -gt 1 ] || { [ $# = 1 ] && [ "$1" != learned ]; }; then
   echo "usage: bash results/make_results.sh [learned]" >&2
   exit 2
@@ -39,6 +39,13 @@ if $classic; then
   # The seed's random motion as it describes it (§2.2.1, §5.2.3): any new heading, its 3000-step limit.
   run --baseline random_bounce_study --layout a320_cell --protocol sequential --max-steps 3000
 
+  # Classic baselines on the building maps (one cell each, so the protocols coincide): plain coverage.
+  for layout in office_floor mall_corridor meeting_area; do
+    for baseline in random_bounce boustrophedon; do
+      run --baseline "$baseline" --layout "$layout" --protocol open
+    done
+  done
+
   # Teams: K = 1, 2, 4 on the two large layouts (K = 1 is recorded above); the planner in both protocols.
   team_run() { runs "0 100" 5 results/runs "$@"; }
   for layout in full_cabin b777_3col; do
@@ -51,9 +58,10 @@ if $classic; then
   done
 fi
 
-# Learned policies (shipped checkpoints), zero-shot on all but the training cell.
+# Learned policies (shipped checkpoints), zero-shot on all but the training cell. ppo_gail_study is a pair of
+# networks, ppo_gail_study_cleaning.pt and ppo_gail_study_tracking.pt.
 for baseline in $learned_baselines; do
-  if [ -f "baselines/ppo_gail/checkpoints/$baseline.pt" ]; then
+  if [ -f "baselines/ppo_gail/checkpoints/$baseline.pt" ] || [ -f "baselines/ppo_gail/checkpoints/${baseline}_cleaning.pt" ]; then
     for layout in a320_cell shape_changed b777_3col full_cabin; do
       run --baseline "$baseline" --layout "$layout" --protocol sequential
     done

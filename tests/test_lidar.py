@@ -48,9 +48,10 @@ def pymunk_scan(
 
 
 # at reset the tracking cell shows its exit through the open bound; full_cabin's first cell its goals
-# and bound
+# and bound; office_floor is a building map (an occupancy layout of many wall segments, in buckets)
 @pytest.mark.parametrize(
-    "layout, tags_to_see", [("a320_tracking_cell", {EXIT}), ("full_cabin", {GOAL, BOUND})]
+    "layout, tags_to_see",
+    [("a320_tracking_cell", {EXIT}), ("full_cabin", {GOAL, BOUND}), ("office_floor", set())],
 )
 def test_every_ray_sees_what_pymunk_sees(layout, tags_to_see):
     env = CoverageEnv(layout)
@@ -61,6 +62,7 @@ def test_every_ray_sees_what_pymunk_sees(layout, tags_to_see):
     xs, ys = world.layout.pixel_centres()
     circle_on = world.circle_on & (world.circle_tags != ROBOT)  # rays are cast from poses the robot is not at
     tags_seen = set()
+    grid = world.cell_protocol.segment_grid
     for row, col in free[rng.choice(len(free), 150, replace=False)]:
         x, y, heading = xs[col], ys[row], rng.uniform(-math.pi, math.pi)
         distances, tags = np.empty(len(world.ray_angles)), np.empty(len(world.ray_angles), dtype=np.int8)
@@ -73,6 +75,9 @@ def test_every_ray_sees_what_pymunk_sees(layout, tags_to_see):
             world.segments,
             world.segment_tags,
             world.segment_on,
+            grid.meta,
+            grid.starts,
+            grid.items,
             world.circles,
             world.circle_tags,
             circle_on,

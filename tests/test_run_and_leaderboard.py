@@ -99,8 +99,8 @@ def test_same_seed_same_metrics_and_workers_agree(short_run, tmp_path):
 
 
 def test_interrupt_keeps_finished_episodes(monkeypatch, tmp_path):
-    def interrupted_after_two(jobs, workers):
-        for index, result in enumerate(run_jobs(jobs, workers)):
+    def interrupted_after_two(jobs, executor):
+        for index, result in enumerate(run_jobs(jobs, executor)):
             if index == 2:
                 raise KeyboardInterrupt
             yield result
@@ -115,7 +115,7 @@ def test_interrupt_keeps_finished_episodes(monkeypatch, tmp_path):
 
 
 def test_interrupt_before_the_first_episode_leaves_no_file(monkeypatch, tmp_path):
-    def interrupted_at_once(jobs, workers):
+    def interrupted_at_once(jobs, executor):
         raise KeyboardInterrupt
         yield
 

@@ -14,7 +14,9 @@ from urllib.parse import unquote, urlsplit
 import pytest
 
 from cabinbench import leaderboard, run
-from cabinbench.leaderboard_site import board_columns
+from cabinbench.leaderboard_site import Entry, board_columns, build_site, suite_columns
+from cabinbench.leaderboard_table import group_rows, summarize_row
+from cabinbench.records import read_records
 
 ROOT = Path(__file__).resolve().parents[1]
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -32,6 +34,8 @@ FLAGS = [
     "--disable-sync",
 ]
 SETTINGS = [("random_bounce", "sequential"), ("boustrophedon", "sequential"), ("boustrophedon", "open")]
+SUITE = "cabin-v1-test"
+SUITE_BASELINES = ("random_bounce", "boustrophedon")
 
 
 def build(runs, out, site) -> None:
@@ -42,7 +46,8 @@ def build(runs, out, site) -> None:
 
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
-    """(the leaderboard's output folder, the site) of a few short runs on one layout."""
+    """(the leaderboard's output folder, the site) of a few short runs on one layout, and two
+    baselines' short runs on the first three layouts of a suite."""
     root = tmp_path_factory.mktemp("site")
     for baseline, protocol in SETTINGS:
         arguments = [
@@ -56,6 +61,9 @@ def built(tmp_path_factory):
             "3",
         ]
         assert run.main([*arguments, "--max-steps", "150", "--out", str(root / "runs")]) == 0
+    for baseline in SUITE_BASELINES:
+        suite = ["--suite", SUITE, "--layouts", "3", "--max-steps", "40", "--episodes-per-layout", "2"]
+        assert run.main(["--baseline", baseline, *suite, "--out", str(root / "runs")]) == 0
     assert leaderboard.main(["--runs", str(root / "runs"), "--out", str(root / "results")]) == 0
     build(root / "runs", root / "results", root / "site")
     return root / "results", root / "site"
@@ -141,8 +149,8 @@ def rendered(path: Path, fragment: str = "") -> Page:
     return page
 
 
-def column(page: Page, title: str, rows: list[dict] | None = None) -> list:
-    index = [key for key, _ in board_columns()].index(title)
+def column(page: Page, title: str, rows: list[dict] | None = None, columns=board_columns) -> list:
+    index = [key for key, _ in columns()].index(title)
     return [row["sort"][index] for row in (page.shown if rows is None else rows)]
 
 
@@ -155,8 +163,8 @@ def test_the_index_shows_the_records_numbers(built):
     assert len(page.shown) == len(table) == len(SETTINGS)
     for row, line in zip(page.shown, table):
         assert (row["attributes"]["data-protocol"], row["cells"][2]) == (line["protocol"], line["baseline"])
-        assert row["cells"][6] == line["episodes"]
-        assert row["cells"][8].startswith(f"{float(line['coverage_mean']):.3f}")
+        assert row["cells"][7] == line["episodes"]
+        assert row["cells"][9].startswith(f"{float(line['coverage_mean']):.3f}")
         assert float(column(page, "coverage", [row])[0]) == pytest.approx(float(line["coverage_mean"]), 1e-5)
 
 
@@ -185,7 +193,9 @@ def test_every_picture_and_link_of_every_page_resolves(built, tmp_path):
         "layouts/a320_cell.html",
         "baselines/random_bounce.html",
         "baselines/boustrophedon.html",
+        f"suite__{SUITE}.html",
     }
+    assert not list((site / "layouts").glob(f"{SUITE}*")), "a suite's layouts have no pages"
     for path in pages:
         page = rendered(path)
         assert page.broken == 0, f"{path}: a picture did not load"
@@ -251,3 +261,90 @@ def test_clicking_a_column_title_sorts_and_choosing_a_filter_filters(built, tmp_
 def order_and_coverage(page: Page) -> tuple[list[str], list]:
     rows = [f"{row['attributes']['data-protocol']}:{row['cells'][2]}" for row in page.shown]
     return rows, column(page, "coverage")
+
+
+def suite_markdown_row(results: Path, baseline: str) -> list[str]:
+    """The cells of a baseline's row in the suites section of ``leaderboard.md``."""
+    board = (results / "leaderboard.md").read_text()
+    part = board[board.index(f"#### Suite `{SUITE}`") :]
+    line = next(line for line in part.splitlines() if line.startswith(f"| {baseline} | sequential | 1 |"))
+    return [cell.strip() for cell in line.strip("|").split("|")]
+
+
+@needs_chromium
+def test_the_suite_page_shows_the_suite_statistics(built):
+    """One row per (baseline, protocol, K) of the suite's records, with the numbers of the suites
+    section of leaderboard.md, the suite's complexity, figures and finding; the index links to it."""
+    results, site = built
+    records = read_records(results.parent / "runs")
+    records = records[records["suite"] == SUITE]
+    page = rendered(site / f"suite__{SUITE}.html")
+    assert sorted(row["cells"][0] for row in page.shown) == sorted(SUITE_BASELINES)
+    for row in page.shown:
+        baseline = row["cells"][0]
+        episodes = records[records["baseline"] == baseline]
+        # baseline, protocol, K, entry, seeds, layouts, episodes
+        assert row["cells"][1:7] == ["sequential", "1", "cabinbench", "1", "3", str(len(episodes))]
+        expected = episodes.groupby("layout")["coverage"].mean().mean()  # the mean of per-layout means
+        coverage = column(page, "coverage", [row], suite_columns)[0]
+        assert float(coverage) == pytest.approx(expected, 1e-9)
+        markdown = suite_markdown_row(results, baseline)  # seeds, layouts, ..., t90 reached
+        assert row["cells"][4:] == markdown[3:]
+    with open(site / f"suite__{SUITE}.csv", newline="") as file:
+        table = {line["baseline"]: line for line in csv.DictReader(file)}
+    for row in page.shown:
+        line = table[row["cells"][0]]
+        assert (line["layouts"], line["episodes"]) == (row["cells"][5], row["cells"][6])
+        coverage = float(column(page, "coverage", [row], suite_columns)[0])
+        assert float(line["coverage_mean"]) == pytest.approx(coverage, 1e-5)
+    text = (site / f"suite__{SUITE}.html").read_text()
+    assert "Finding: too few layouts" in text  # three layouts: no interval on ρ
+    assert "on the 3 layouts run" in text and "layouts of the suite (its manifest)" in text
+    for kind in ("profiles", "improvement", "complexity"):
+        assert f'src="images/suite__{SUITE}__{kind}.png"' in text
+    assert f'href="suite__{SUITE}.html"' in (site / "index.html").read_text()
+    assert not any(SUITE in row["cells"][0] for row in rendered(site / "index.html").rows)
+
+
+@needs_chromium
+def test_the_suite_page_sorts_and_filters(built):
+    _, site = built
+    suite = site / f"suite__{SUITE}.html"
+    for key in ("coverage", "path_efficiency"):
+        ascending = [
+            float(value)
+            for value in column(rendered(suite, f"#sort={key}&dir=asc"), key, None, suite_columns)
+        ]
+        descending = [
+            float(value)
+            for value in column(rendered(suite, f"#sort={key}&dir=desc"), key, None, suite_columns)
+        ]
+        assert ascending == sorted(ascending) and descending == ascending[::-1]
+    baselines = [row["cells"][0] for row in rendered(suite, "#sort=baseline&dir=desc").shown]
+    assert baselines == sorted(SUITE_BASELINES, reverse=True)
+    assert rendered(suite, "#protocol=open").shown == []
+    assert len(rendered(suite, "#k=1").shown) == len(SUITE_BASELINES)
+
+
+@needs_chromium
+def test_a_suite_submission_is_a_row_of_the_suite_board(built, tmp_path):
+    """A submission's suite records (as ``leaderboard`` makes its entries: per layout, marked) become
+    rows of the suite's board beside ours, scored the same way; they get no layout pages."""
+    results, _ = built
+    records = leaderboard.records_in(str(results.parent / "runs"), "--runs")
+    ours = records[records["suite"] == SUITE]
+    submitted = [
+        Entry(summarize_row(key, episodes), episodes.assign(source="sent.json"), "submission, unverified")
+        for key, episodes in group_rows(ours)
+    ]
+    site = tmp_path / "site"
+    with pytest.MonkeyPatch.context() as patch:
+        patch.chdir(ROOT)
+        build_site(site, submitted, ours, results / "figures", results, Path("CITATION.cff"), "test")
+    page = rendered(site / f"suite__{SUITE}.html")
+    assert [row["cells"][3] for row in page.rows] == ["cabinbench"] * 2 + ["submission, unverified"] * 2
+    assert page.rows[0]["cells"][4:] == page.rows[2]["cells"][4:]  # the same records, the same numbers
+    shown = rendered(site / f"suite__{SUITE}.html", "#entry=submission").shown
+    assert [row["attributes"]["class"] for row in shown] == ["submission"] * 2
+    assert not list((site / "layouts").glob("*"))
+    assert "No records outside a suite" in (site / "index.html").read_text()

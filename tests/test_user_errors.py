@@ -8,7 +8,9 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numpy as np
 import pytest
+from PIL import Image
 
 ROOT = Path(__file__).resolve().parents[1]
 RUN = ["run", "--baseline", "random_bounce", "--layout", "a320_cell", "--episodes", "1", "--max-steps", "10"]
@@ -61,6 +63,47 @@ CASES = {
     "run: --render of another format": (
         [*RUN, "--render", "first.jpg"],
         ["argument --render", ".png or .gif"],
+    ),
+    "run: --address of the local executor": (
+        [*RUN, "--address", "auto"],
+        ["--address", "only --executor ray runs on a cluster"],
+    ),
+    "run: --workers with Ray": (
+        [*RUN, "--executor", "ray", "--workers", "2"],
+        ["--workers", "the local executor's"],
+    ),
+    **{
+        f"run: ROS map {problem}": (
+            ["run", "--baseline", "random_bounce", "--layout", f"{name}.yaml"],
+            [f"{name}.yaml: field '{field}'", *fragments, "Fix:"],
+        )
+        for name, (problem, field, fragments) in {
+            "map_missing": ("image missing", "image", ["nope.pgm not found"]),
+            "map_text": ("image not an image", "image", ["is not an image"]),
+            "map_colour": ("image in colour", "image", ["not an 8-bit grey image (mode RGB)"]),
+            "map_deep": ("image of 16 bits", "image", ["not an 8-bit grey image (mode I)"]),
+            "map_truncated": ("image truncated", "image", ["is damaged"]),
+            "map_resolution": ("resolution 0", "resolution", ["must be positive"]),
+            "map_threshold": ("threshold above 1", "occupied_thresh", ["must be in [0, 1]"]),
+            "map_order": ("free above occupied", "free_thresh", ["not below occupied_thresh"]),
+            "map_no_free": ("without free pixels", "image", ["has no free pixel"]),
+            "map_start": ("start in a wall", "start", ["inside an obstacle"]),
+            "map_huge": (
+                "too large for the machine",
+                "image",
+                ["13000 x 13000 px", "more than this machine's"],
+            ),
+        }.items()
+    },
+    "complexity: ROS map image missing": (["complexity", "map_missing.yaml"], ["field 'image'", "not found"]),
+    "layouts: export of an unknown layout": (
+        ["layouts", "export", "nope", "out"],
+        ["unknown layout", "Fix:"],
+    ),
+    "layouts: export into a file": (["layouts", "export", "a320_cell", "file.txt"], ["file.txt is a file"]),
+    "layouts: export at resolution 0": (
+        ["layouts", "export", "a320_cell", "out", "--resolution", "0"],
+        ["argument --resolution", "'0' is not a number > 0"],
     ),
     "complexity: broken layout": (["complexity", "bad.yaml"], ["bad.yaml: field 'kind'", "Fix:"]),
     "complexity: layout not UTF-8": (["complexity", "latin.yaml"], ["latin.yaml", "not UTF-8", "Fix:"]),
@@ -119,6 +162,18 @@ CASES = {
         ["'random_bounce' does not learn", "trainable baselines: ppo"],
     ),
     "train: unknown option": (["train", "--baseline", "ppo", "--bogus"], ["unrecognized arguments: --bogus"]),
+    "train: --seed and --seeds": (
+        ["train", "--baseline", "ppo", "--seed", "1", "--seeds", "0", "1"],
+        ["--seed", "give the seeds with --seeds alone"],
+    ),
+    "train: one --run-dir for several seeds": (
+        ["train", "--baseline", "ppo", "--seeds", "0", "1", "--run-dir", "here"],
+        ["--run-dir", "each seed of a sweep has its own"],
+    ),
+    "train: --executor without --seeds": (
+        ["train", "--baseline", "ppo", "--executor", "ray"],
+        ["--executor and --address run the seeds of --seeds"],
+    ),
 }
 # cabinbench/train.py hands its arguments to the trainer a baseline declares; this one is that
 # trainer's (baselines/ppo_gail/cli.py), whose plain argparse prints its usage block first.
@@ -133,8 +188,38 @@ def write_inputs(folder: Path) -> None:
     (folder / "layouts").mkdir()
     (folder / "layouts" / "bad.yaml").write_text("kind: maze\n")
     (folder / "layouts" / "room.yaml").write_text((ROOT / "layouts" / "paper_matrix_a.yaml").read_text())
+    write_ros_maps(folder)
     (folder / "bad_runs").mkdir()
     (folder / "bad_runs" / "broken.jsonl").write_text("{not json\n{}\n")
+
+
+def write_ros_maps(folder: Path) -> None:
+    """One broken ROS map per bad input of a map (issue 19), each beside a good image."""
+    room = np.full((40, 40), 254, np.uint8)
+    room[:2], room[-2:], room[:, :2], room[:, -2:] = 0, 0, 0, 0
+    Image.fromarray(room).save(folder / "room.pgm")
+    Image.fromarray(np.stack([room] * 3, axis=-1)).save(folder / "colour.png")
+    (folder / "deep.pgm").write_bytes(b"P5\n40 40\n65535\n" + bytes(40 * 40 * 2))
+    (folder / "truncated.pgm").write_bytes(b"P5\n40 40\n255\n" + bytes(100))
+    Image.fromarray(np.zeros((40, 40), np.uint8)).save(folder / "black.pgm")
+    (folder / "huge.pgm").write_bytes(b"P5\n13000 13000\n255\n" + bytes(10))  # 1 m a pixel: 13 km a side
+    plain = "resolution: 0.05\norigin: [0.0, 0.0, 0.0]\n"
+    maps = {
+        "map_missing": "image: nope.pgm\n" + plain,
+        "map_text": "image: file.txt\n" + plain,
+        "map_colour": "image: colour.png\n" + plain,
+        "map_deep": "image: deep.pgm\n" + plain,
+        "map_truncated": "image: truncated.pgm\n" + plain,
+        "map_resolution": "image: room.pgm\nresolution: 0\norigin: [0.0, 0.0, 0.0]\n",
+        "map_threshold": "image: room.pgm\noccupied_thresh: 1.5\n" + plain,
+        "map_order": "image: room.pgm\nfree_thresh: 0.7\noccupied_thresh: 0.65\n" + plain,
+        "map_no_free": "image: black.pgm\n" + plain,
+        "map_huge": "image: huge.pgm\nresolution: 1.0\norigin: [0.0, 0.0, 0.0]\n",
+        "map_start": "kind: occupancy\nstart: [0.02, 1.0]\noccupancy:\n  image: room.pgm\n"
+        "  resolution: 0.05\n  origin: [0.0, 0.0, 0.0]\n",
+    }
+    for name, text in maps.items():
+        (folder / f"{name}.yaml").write_text(text)
 
 
 @pytest.fixture(scope="module")

@@ -66,9 +66,9 @@ STUDY_PPO = {
     "num_learning_epochs": 3,
 }
 """PPO hyperparameters of the study (Table 5.2/5.3). ``make_train_cfg`` uses rsl-rl's "fixed" learning-rate
-schedule so the rate stays at the study's 3e-4; rsl-rl's default "adaptive" schedule would move it to track a
-target KL. All reward signals share the one discount ``gamma``: rsl-rl's storage holds a single reward
-stream."""
+schedule, which keeps the study's initial 3e-4 (rsl-rl's default "adaptive" schedule would move it to track a
+target KL); the study's ML-Agents decayed it linearly, which ``TrainConfig.learning_rate_schedule`` does.
+All reward signals share the one discount ``gamma``: rsl-rl's storage holds a single reward stream."""
 
 
 # ----------------------------------------------------------------------------------------------------

@@ -1,15 +1,25 @@
 """The trainer of the ppo_gail baselines, run by ``python -m cabinbench.train --baseline ppo_gail ...``.
 
     python -m cabinbench.train --baseline ppo_gail|ppo|ppo_icm|ppo_gail_only
+    python -m cabinbench.train --baseline ppo_gail_study --stage cleaning|tracking
         [--layout NAME ...] [--iterations N] [--num-envs N] [--steps-per-env N] [--seed S]
         [--reward paper|coverage] [--[no-]terminate-on-bound] [--max-steps N] [--algorithm JSON]
         [--min-action-std X] [--coverage-patch N] [--coverage-patch-cell M] [--[no-]random-start]
         [--threads N] [--save-interval N] [--validation-episodes N] [--export last|best]
         [--demonstrations FILE.npz ...] [--demo-episodes N] [--demo-action-noise STD]
-        [--run-dir DIR] [--resume] [--ship [--ship-dir DIR]] [--keep] [--no-progress]
+        [--run-dir DIR] [--resume] [--export-latest] [--ship [--ship-dir DIR]] [--keep] [--no-progress]
+        [--seeds S ... [--executor local|ray [--address A]]]
 
-Options not given take the defaults of ``cabinbench.baselines.ppo_gail.training.TrainConfig`` (the shipped
-policies' configuration; with ``--layout`` repeated, one policy trains on all of them, by default
+``ppo_gail_study`` is two networks trained apart, each with ``--stage``: options not given take the study's
+configuration (``cabinbench.baselines.ppo_gail.study``), the run lives in
+``runs/train/ppo_gail_study_<stage>__seed<S>`` and ``--ship`` installs ``ppo_gail_study_<stage>.pt`` with its
+``.config.json`` and ``.training.json`` (the training summary: iterations and steps reached of those
+planned, time, final metrics) beside it. ``--export-latest`` trains nothing: it exports the run's latest
+checkpoint as its ``policy.pt`` (its training summary says how many of the planned iterations it had), for
+``--ship``.
+
+Otherwise options not given take the defaults of ``cabinbench.baselines.ppo_gail.training.TrainConfig`` (the
+shipped policies' configuration; with ``--layout`` repeated, one policy trains on all of them, by default
 ``a320_cell`` and ``a320_tracking_cell``). The run lives in ``--run-dir`` (default
 ``runs/train/<baseline>__seed<S>``): config, demonstrations, checkpoints, ``metrics.csv``, ``curves.png`` and
 the exported ``policy.pt``. ``--resume`` continues an interrupted run from its latest checkpoint, with the
@@ -24,8 +34,15 @@ it from the repository root), where ``python -m cabinbench.run --baseline <basel
 ``config.json``, ``metrics.csv`` and ``validation.csv`` to ``results/training/<baseline>/seed<S>/``: a further
 training run of the same command, which ``results/make_results.sh`` scores into ``results/ablation.md``.
 
-Exit status: 0 done; 2 bad arguments (an unknown baseline: the valid ones are printed) or a run directory that
-cannot be used as asked; 130 interrupted by Ctrl-C (finished checkpoints are kept; resume with ``--resume``).
+``--seeds S ...`` trains one run per seed at once, each exactly as ``--seed S`` would, in its own default run
+directory (one CPU each): in local processes, or with ``--executor ray`` as Ray tasks on the cluster at
+``--address`` (or a local Ray instance; on several nodes the run directories must be on a shared filesystem).
+An interrupted sweep continues with the same command and ``--resume``: each unfinished seed resumes from its
+latest checkpoint, a finished one is only exported again.
+
+Exit status: 0 done (every seed); 1 a seed's worker died; 2 bad arguments (an unknown baseline: the valid
+ones are printed) or a run directory that cannot be used as asked; 130 interrupted by Ctrl-C (finished
+checkpoints are kept; resume with ``--resume``).
 """
 
 from __future__ import annotations
@@ -37,15 +54,14 @@ import shutil
 import sys
 from pathlib import Path
 
+from cabinbench.cli import UsageError
+from cabinbench.executors import EXECUTOR_NAMES, JobFailure, executors
 from cabinbench.rewards import REWARD_PRESETS
 
 EXIT_USAGE, EXIT_INTERRUPTED = 2, 130
-TRAINABLE = (
-    "ppo_gail",
-    "ppo",
-    "ppo_icm",
-    "ppo_gail_only",
-)  # = cabinbench.baselines.ppo_gail.algorithm.ABLATIONS
+ABLATION_NAMES = ("ppo_gail", "ppo", "ppo_icm", "ppo_gail_only")  # = ...ppo_gail.algorithm.ABLATIONS
+STUDY_NAME = "ppo_gail_study"  # two networks, one per --stage (cabinbench.baselines.ppo_gail.study)
+TRAINABLE = (*ABLATION_NAMES, STUDY_NAME)
 TRAINING_RECORDS = Path("results/training")  # what --ship and --keep keep of a run
 SHIP_DIR = Path("baselines/ppo_gail/checkpoints")  # the repository's, never the installed package's
 
@@ -56,6 +72,11 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         description="Train PPO + curiosity + GAIL (or an ablation) with rsl-rl.",
     )
     parser.add_argument("--baseline", required=True, help=f"one of {', '.join(TRAINABLE)}")
+    parser.add_argument(
+        "--stage",
+        choices=("cleaning", "tracking"),
+        help=f"which network of {STUDY_NAME} to train (required for it, and only for it)",
+    )
     parser.add_argument(
         "--layout",
         action="append",
@@ -137,7 +158,24 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         help="copy the policy and training records to results/training/<baseline>/seed<S>/ "
         "(results/ablation.md)",
     )
+    parser.add_argument(
+        "--export-latest",
+        action="store_true",
+        help="do not train: export the run's latest checkpoint as its policy.pt (then --ship or --keep it)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument(
+        "--seeds", type=int, nargs="+", metavar="S", help="train one run per seed at once (instead of --seed)"
+    )
+    parser.add_argument(
+        "--executor",
+        choices=EXECUTOR_NAMES,
+        default="local",
+        help="with --seeds: local processes or Ray tasks",
+    )
+    parser.add_argument(
+        "--address", help="with --executor ray: the cluster ('auto' or HOST:PORT; default local)"
+    )
     args = parser.parse_args(argv)
     if args.algorithm is not None and not isinstance(args.algorithm, dict):
         parser.error("--algorithm must be a JSON object")
@@ -175,21 +213,45 @@ def build_config(args: argparse.Namespace):
         )
         if getattr(args, name) is not None
     }
-    given["ablation"] = args.baseline
-    run_dir = Path(args.run_dir) if args.run_dir else default_run_dir(TrainConfig(**given))
-    saved_path = run_dir / CONFIG_FILE
-    if args.resume and saved_path.exists():
-        config = TrainConfig.from_dict({**json.loads(saved_path.read_text()), **given})
+    if args.baseline == STUDY_NAME:
+        from cabinbench.baselines.ppo_gail.study import study_config
+
+        config = study_config(args.stage, **given)
     else:
-        config = TrainConfig(**given)
+        config = TrainConfig(ablation=args.baseline, **given)
+    run_dir = Path(args.run_dir) if args.run_dir else default_run_dir(config, name=policy_name(args))
+    saved_path = run_dir / CONFIG_FILE
+    if (args.resume or args.export_latest) and saved_path.exists():
+        config = TrainConfig.from_dict({**json.loads(saved_path.read_text()), **given})
     return config, run_dir
+
+
+def policy_name(args: argparse.Namespace) -> str:
+    """What a run's policy ships as: the baseline, or for the study's networks ``ppo_gail_study_<stage>``."""
+    return f"{STUDY_NAME}_{args.stage}" if args.baseline == STUDY_NAME else args.baseline
 
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
+    if args.seeds is not None:
+        return sweep(args)
+    if args.executor != "local" or args.address is not None:
+        print("error: --executor and --address run the seeds of --seeds; give --seeds S ...", file=sys.stderr)
+        return EXIT_USAGE
+    return train_one(args)
+
+
+def train_one(args: argparse.Namespace) -> int:
+    """Train the run of ``args`` (one seed); the exit status."""
     if args.baseline not in TRAINABLE:
         print(
             f"error: cannot train baseline {args.baseline!r}; trainable baselines: {', '.join(TRAINABLE)}",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE
+    if (args.baseline == STUDY_NAME) != (args.stage is not None):
+        print(
+            f"error: --stage cleaning|tracking is for --baseline {STUDY_NAME}, and it needs one",
             file=sys.stderr,
         )
         return EXIT_USAGE
@@ -201,7 +263,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         return EXIT_USAGE
     os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
-    from cabinbench.baselines.ppo_gail.training import train
+    from cabinbench.baselines.ppo_gail.training import export_latest, train
     from cabinbench.layout import LayoutError, available_layouts, load_layout
 
     try:
@@ -215,14 +277,19 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
 
+    name = policy_name(args)
     print(
-        f"training {config.ablation} on {', '.join(config.layouts)}: {config.iterations} iterations x "
-        f"{config.num_envs} envs x {config.num_steps_per_env} steps; run dir {run_dir}",
+        f"{'exporting' if args.export_latest else 'training'} {name} on {', '.join(config.layouts)}: "
+        f"{config.iterations} iterations x {config.num_envs} envs x {config.num_steps_per_env} steps; "
+        f"run dir {run_dir}",
         file=sys.stderr,
     )
     try:
-        result = train(config, run_dir, resume=args.resume, progress=not args.no_progress)
-    except (FileExistsError, ValueError) as error:
+        if args.export_latest:
+            result = export_latest(config, run_dir)
+        else:
+            result = train(config, run_dir, resume=args.resume, progress=not args.no_progress)
+    except (FileExistsError, FileNotFoundError, ValueError) as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:  # before the first iteration (recording demonstrations, building the runner)
@@ -233,7 +300,7 @@ def main(argv: list[str] | None = None) -> int:
 
     summary = result.summary
     print(
-        f"done: {result.iterations} iterations, {summary['timesteps']} steps, "
+        f"done: {result.iterations} of {config.iterations} iterations, {summary['timesteps']} steps, "
         f"{result.train_time / 60:.1f} min of training; last iterations: "
         f"coverage {summary['final_coverage']}, success {summary['final_success']}"
     )
@@ -245,18 +312,115 @@ def main(argv: list[str] | None = None) -> int:
     if config.validation_episodes:
         print(f"validation of every checkpoint: {result.run_dir / 'validation.csv'}")
     if args.ship:
-        shipped = args.ship_dir / f"{config.ablation}.pt"
+        shipped = args.ship_dir / f"{name}.pt"
         copy_file(result.policy_path, shipped)
-        records = TRAINING_RECORDS / config.ablation
-        for name in training_records(config):
-            copy_file(result.run_dir / name, records / name)
-        print(f"shipped: {shipped}; training records: {records}")
+        if args.baseline == STUDY_NAME:  # its networks are no ablation: their records stay beside them
+            copy_file(result.run_dir / "config.json", args.ship_dir / f"{name}.config.json")
+            reached = args.ship_dir / f"{name}.training.json"  # how far it trained: steps, time, metrics
+            reached.write_text(json.dumps(summary, indent=2) + "\n")
+            print(f"shipped: {shipped}, its config and {reached.name}")
+        else:
+            records = TRAINING_RECORDS / name
+            for record in training_records(config):
+                copy_file(result.run_dir / record, records / record)
+            print(f"shipped: {shipped}; training records: {records}")
     if args.keep:
-        kept = TRAINING_RECORDS / config.ablation / f"seed{config.seed}"
+        kept = TRAINING_RECORDS / name / f"seed{config.seed}"
         for name in ("policy.pt", *training_records(config)):
             copy_file(result.run_dir / name, kept / name)
         print(f"kept: {kept} (score it with the loop in results/make_results.sh)")
     return 0
+
+
+def sweep(args: argparse.Namespace) -> int:
+    """Train every seed of ``--seeds`` with the executor of ``--executor``; the worst exit status."""
+    several = len(set(args.seeds)) > 1
+    refused = [
+        (args.seed is not None, "--seed: give the seeds with --seeds alone"),
+        (
+            several and args.run_dir is not None,
+            "--run-dir: each seed of a sweep has its own default run directory",
+        ),
+        (several and args.ship, "--ship: seeds would overwrite each other's shipped policy; ship one seed"),
+        (args.baseline not in TRAINABLE, f"--baseline: trainable baselines: {', '.join(TRAINABLE)}"),
+        (
+            args.executor == "local" and args.address is not None,
+            "--address: only --executor ray runs on a cluster",
+        ),
+    ]
+    for mistake, message in refused:
+        if mistake:
+            print(f"error: {message}", file=sys.stderr)
+            return EXIT_USAGE
+    # Each seed's run works in this folder (a Ray worker's own is elsewhere): run directories, --keep and
+    # --ship land where a local run would put them.
+    here = str(Path.cwd())
+    jobs = [
+        argparse.Namespace(
+            **{**vars(args), "seeds": None, "seed": seed, "no_progress": True, "workdir": here}
+        )
+        for seed in dict.fromkeys(args.seeds)
+    ]
+    try:
+        executor = executors()[args.executor](
+            workers=min(len(jobs), os.cpu_count() or 1), address=args.address
+        )
+    except UsageError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    print(
+        f"training seeds {', '.join(str(job.seed) for job in jobs)} with the {args.executor} executor",
+        file=sys.stderr,
+    )
+    statuses = {}
+    try:
+        with executor:
+            for outcome in executor.map(train_seed, jobs):
+                if isinstance(outcome, JobFailure):
+                    job, status, what = outcome.job, 1, f"failed: {outcome.message}"
+                else:
+                    job, status = outcome
+                    what = "done" if status == 0 else f"exit status {status}"
+                statuses[job.seed] = status
+                print(f"seed {job.seed}: {what} ({run_dir(job)})", file=sys.stderr)
+    except KeyboardInterrupt:
+        statuses[None] = EXIT_INTERRUPTED
+    if any(status != 0 for status in statuses.values()):
+        unfinished = [job.seed for job in jobs if statuses.get(job.seed) != 0]
+        print(
+            f"seeds not finished: {', '.join(map(str, unfinished))}; continue them from their checkpoints "
+            "with the same command and --resume",
+            file=sys.stderr,
+        )
+    for status in (EXIT_INTERRUPTED, EXIT_USAGE, 1):
+        if status in statuses.values():
+            return status
+    return 0
+
+
+def run_dir(args: argparse.Namespace) -> Path:
+    """The run directory of ``args`` (one seed)."""
+    from cabinbench.baselines.ppo_gail.training import TrainConfig, default_run_dir
+
+    return (
+        Path(args.run_dir)
+        if args.run_dir
+        else default_run_dir(TrainConfig(ablation=args.baseline, seed=args.seed))
+    )
+
+
+def train_seed(args: argparse.Namespace) -> tuple[argparse.Namespace, int]:
+    """One seed of a sweep, in a worker: its arguments and exit status."""
+    os.chdir(args.workdir)
+    return args, train_one(args)
+
+
+def bench_iteration(iterations: int = 3, warmup: int = 1) -> dict[str, dict[str, float]]:
+    """Seconds per training iteration of each ablation, split into env, rollout and update: what
+    ``python -m cabinbench.bench`` asks a trainer for (``cabinbench.baselines.ppo_gail.bench``)."""
+    from cabinbench.baselines.ppo_gail.bench import bench_iteration as measure
+
+    return measure(iterations, warmup)
 
 
 def training_records(config) -> tuple[str, ...]:

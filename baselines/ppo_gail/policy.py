@@ -1,4 +1,5 @@
-"""The learned baselines ppo_gail, ppo, ppo_icm and ppo_gail_only: their shipped policies, in plain torch.
+"""The learned baselines ppo_gail, ppo, ppo_icm, ppo_gail_only and ppo_gail_study: their shipped policies, in
+plain torch (``ppo_gail_study`` runs a pair of them, see ``PPOGailStudy``).
 
 Each baseline loads its policy file (default ``baselines/ppo_gail/checkpoints/<ablation>.pt``, or
 ``checkpoint=`` in its config, e.g. ``--config '{"checkpoint": "runs/train/ppo_gail__seed0/policy.pt"}'``)
@@ -307,7 +308,9 @@ class LearnedPolicy(Baseline):
 
 
 class PPOGail(LearnedPolicy):
-    """PPO + curiosity (ICM) + GAIL: the seed's learner."""
+    """PPO + curiosity (ICM) + GAIL: our tuned variant of the study's learner (one network, dense reward,
+    coverage patch; ``ppo_gail_study`` is the study's configuration, ``results/differences.md`` the
+    differences)."""
 
     name = ablation = "ppo_gail"
 
@@ -328,6 +331,69 @@ class PPOGailOnly(LearnedPolicy):
     """Ablation: PPO + GAIL, no curiosity."""
 
     name = ablation = "ppo_gail_only"
+
+
+class PPOGailStudy(Baseline):
+    """The study's learner run as the study runs it (§4.3.2, Fig. 4.15): two networks of the study's
+    configuration (``baselines.ppo_gail.study``), one that cleans a cell and one that tracks to the next
+    cell's exit, taking turns as the sequential protocol moves on. Config: ``cleaning`` and ``tracking``
+    (policy files; default the shipped ``ppo_gail_study_cleaning.pt`` and ``ppo_gail_study_tracking.pt``)
+    and ``stochastic`` (as ``LearnedPolicy``).
+
+    Which network acts is read from the env's ``info`` and the layout, as the study's process controller
+    knows it (it removes the bound and shows the exit when the cell's last white cube is reached, Fig.
+    4.15), never from the observation: while the current cell is clean (``layout.cleared_cells`` +
+    ``info["cells_cleared"]`` cells are clean, counted from the first, and ``info["current_cell"]`` is
+    among them) the tracking network acts, else the cleaning one. In the ``open`` protocol there are no
+    exits to track: the cleaning network acts throughout."""
+
+    name = "ppo_gail_study"
+    trainer = "cabinbench.baselines.ppo_gail.cli:main"
+
+    def __init__(
+        self,
+        cleaning: str | os.PathLike | None = None,
+        tracking: str | os.PathLike | None = None,
+        stochastic: bool = True,
+    ) -> None:
+        settings = {
+            key: str(value) for key, value in (("cleaning", cleaning), ("tracking", tracking)) if value
+        }
+        super().__init__(**settings, stochastic=bool(stochastic))
+        self.networks = {
+            stage: PPOGail(path or CHECKPOINT_DIR / f"{self.name}_{stage}.pt", stochastic)
+            for stage, path in (("cleaning", cleaning), ("tracking", tracking))
+        }
+        cleaning_config, tracking_config = (network.env_options for network in self.networks.values())
+        if cleaning_config != tracking_config:
+            raise PolicyFileError(
+                f"{self.networks['tracking'].path}: trained on another observation than "
+                f"{self.networks['cleaning'].path} ({tracking_config} vs {cleaning_config}); "
+                "the pair must share one"
+            )
+        self.stage = "cleaning"
+
+    @property
+    def env_options(self) -> dict:
+        return self.networks["cleaning"].env_options
+
+    def reset(self, context: EpisodeContext, observation: np.ndarray, info: dict) -> None:
+        super().reset(context, observation, info)
+        for network in self.networks.values():
+            network.reset(context, observation, info)
+        self.networks["tracking"].rng = self.networks["cleaning"].rng  # one noise stream for the episode
+
+    def act(self, observation: np.ndarray, info: dict) -> np.ndarray:
+        self.stage = tracking_or_cleaning(self.context, info)
+        return self.networks[self.stage].act(observation, info)
+
+
+def tracking_or_cleaning(context: EpisodeContext, info: dict) -> str:
+    """ "tracking" while the robot's current cell is clean (its exit shows), else "cleaning"."""
+    clean_cells = context.layout.cleared_cells + info["cells_cleared"]
+    if context.protocol == "sequential" and clean_cells > info["current_cell"]:
+        return "tracking"
+    return "cleaning"
 
 
 # ----------------------------------------------------------------------------------------------------

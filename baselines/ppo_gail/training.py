@@ -10,7 +10,8 @@ which ``full_cabin`` evaluates zero-shot.
 
 Read top to bottom:
 
-1. ``TrainConfig``: every setting of a run, with its default and why.
+1. ``TrainConfig``: every setting of a run, with its default and why (``study.study_config`` gives the
+   study's own configuration instead: two networks trained apart, ``ppo_gail_study``).
 2. ``train(config, run_dir)``: records expert demonstrations with the boustrophedon planner (or reuses
    given ``.npz`` files), builds ``RslRlVecEnv(BatchedCoverageEnv(...))`` and rsl-rl's ``OnPolicyRunner``
    with the ``PPOCuriosityGail`` algorithm, then runs ``runner.learn(1)`` once per iteration under a tqdm
@@ -85,7 +86,11 @@ class TrainConfig:
     num_envs: int = 64
     """Parallel envs."""
     num_steps_per_env: int = 64
-    """Rollout length per env and iteration; an iteration collects ``num_envs * num_steps_per_env`` steps."""
+    """Rollout length per env and iteration (ML-Agents' ``time_horizon``); an iteration collects ``num_envs *
+    num_steps_per_env`` steps (ML-Agents' ``buffer_size``)."""
+    num_mini_batches: int = 4
+    """Mini-batches per epoch of the update (PPO, ICM and discriminator alike): 4096 / 4 = 1024 samples each.
+    Few large mini-batches: on a CPU the update dominates the iteration time."""
     iterations: int = 800
     """Training iterations: 3.3 M steps with the defaults."""
     seed: int = 0
@@ -96,6 +101,9 @@ class TrainConfig:
     terminate_on_bound: bool = False
     """Keep the episode going on a bound contact: ending it would be an exit from the mostly negative GAIL
     reward (docs/experiments.md). The contact still costs the preset's bound penalty."""
+    terminate_on_exit: bool = False
+    """Keep the episode going after an exit landmark: the policy goes on to clean the next cell, as it must in
+    ``full_cabin`` (the study's separate tracking training ends there instead)."""
     random_start: bool = True
     """Start each training episode at a random pose of the start cell, as the policy enters each new cell of
     ``full_cabin`` (docs/experiments.md). The demonstrations keep the layout's start, where the plan
@@ -113,8 +121,16 @@ class TrainConfig:
     """Actor and critic MLPs. Small: on a CPU the update dominates the iteration time."""
     activation: str = "elu"
     """Activation of the actor and critic MLPs (rsl-rl's name)."""
+    obs_normalization: bool = True
+    """Normalise the actor's and critic's inputs with running statistics: the lidar's one-hot tags are rare
+    and the velocities small, and normalised they weigh like the distances."""
     init_noise_std: float = 1.0
     """Initial std of the Gaussian policy."""
+    learning_rate_schedule: str = "fixed"
+    """"fixed" keeps PPO's learning rate, clip range and entropy coefficient; "linear" decays them over
+    ``iterations`` towards ``LINEAR_DECAY_FINAL``, as ML-Agents' default ``learning_rate_schedule`` does (the
+    study's Table 5.2 gives the *initial* learning rate). The schedule is a function of the iteration and
+    ``iterations``: a run resumed with other ``iterations`` follows the new total's."""
     min_action_std: float = 0.25
     """Lower clamp of the policy's std (rsl-rl's ``std_range``; 0 leaves it free): keeps the policy exploring
     while the discriminator pushes the std down (docs/experiments.md)."""
@@ -149,11 +165,23 @@ class TrainConfig:
             raise ValueError(f"unknown ablation {self.ablation!r}; choose one of {', '.join(ABLATIONS)}")
         if not self.layouts:
             raise ValueError("layouts must name at least one layout")
-        for name in ("num_envs", "num_steps_per_env", "iterations", "save_interval", "threads"):
+        for name in (
+            "num_envs",
+            "num_steps_per_env",
+            "num_mini_batches",
+            "iterations",
+            "save_interval",
+            "threads",
+        ):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
         if self.validation_episodes < 0:
             raise ValueError(f"validation_episodes must be 0 or more, got {self.validation_episodes}")
+        if self.learning_rate_schedule not in LEARNING_RATE_SCHEDULES:
+            raise ValueError(
+                f"learning_rate_schedule must be one of {LEARNING_RATE_SCHEDULES}, got "
+                f"{self.learning_rate_schedule!r}"
+            )
         if self.export not in ("last", "best"):
             raise ValueError(f'export must be "last" or "best", got {self.export!r}')
         if self.export == "best" and not self.validation_episodes:
@@ -173,6 +201,7 @@ class TrainConfig:
         return {
             "reward": self.reward,
             "terminate_on_bound": self.terminate_on_bound,
+            "terminate_on_exit": self.terminate_on_exit,
             "max_steps": self.max_steps,
             "random_start": self.random_start,
             "coverage_patch": self.coverage_patch,
@@ -196,6 +225,11 @@ class TrainConfig:
         return cls(**values)
 
 
+LEARNING_RATE_SCHEDULES = ("fixed", "linear")
+LINEAR_DECAY_FINAL = {"learning_rate": 1.0e-10, "clip_param": 0.1, "entropy_coef": 1.0e-5}
+"""Where the "linear" schedule ends, at ``iterations``: ML-Agents' ``DecayedValue`` of the learning rate,
+epsilon and beta (ml-agents PR 4318)."""
+
 RESUMABLE_CHANGES = ("iterations", "threads", "save_interval", "export")
 """Fields a resumed run may change (e.g. train further, or export another checkpoint); any other difference to
 the saved config is an error."""
@@ -205,9 +239,9 @@ VALIDATION_FILE = "validation.csv"
 CHECKPOINT_DIR, DEMO_DIR, VALIDATION_DIR = "checkpoints", "demos", "validation"
 
 
-def default_run_dir(config: TrainConfig, root: str | os.PathLike = "runs/train") -> Path:
-    """``runs/train/<ablation>__seed<S>``."""
-    return Path(root) / f"{config.ablation}__seed{config.seed}"
+def default_run_dir(config: TrainConfig, root: str | os.PathLike = "runs/train", name: str = "") -> Path:
+    """``runs/train/<name>__seed<S>``; the name defaults to the ablation."""
+    return Path(root) / f"{name or config.ablation}__seed{config.seed}"
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -399,40 +433,10 @@ def train(
     latest checkpoint (or starts, if there is none). Ctrl-C stops after the finished checkpoints and returns
     with ``interrupted=True``.
     """
-    from rsl_rl.runners import OnPolicyRunner
-
-    from cabinbench.baselines.ppo_gail.policy import export_policy
-    from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
-
     run_dir = Path(run_dir) if run_dir is not None else default_run_dir(config)
     checkpoint = prepare_run_dir(config, run_dir, resume)
-
-    torch.set_num_threads(config.threads)
-    torch.manual_seed(config.seed)
-    np.random.seed(config.seed)
-
-    demonstrations = expert_demonstrations(config, run_dir) if config.uses_gail else []
-    batched = BatchedCoverageEnv(config.layouts, config.num_envs, seed=config.seed, **config.env_kwargs)
-    env = RslRlVecEnv(batched)
-    obs_config = batched.example_env.observation_config
-    train_cfg = make_train_cfg(
-        config.ablation,
-        expert_demonstrations=demonstrations,
-        expected_observation_config=obs_config,
-        shaping_columns=shaping_columns(batched.example_env.observation_layout),
-        num_steps_per_env=config.num_steps_per_env,
-        hidden_dims=config.hidden_dims,
-        activation=config.activation,
-        init_noise_std=config.init_noise_std,
-        save_interval=config.save_interval,
-        **config.algorithm,
-    )
-    if config.min_action_std > 0:
-        train_cfg["actor"]["distribution_cfg"]["std_range"] = [config.min_action_std, 1.0e6]
-    with open(run_dir / "rsl_rl.log", "a") as log, contextlib.redirect_stdout(log):
-        runner = OnPolicyRunner(env, train_cfg, log_dir=None, device="cpu")  # prints the models
-    steps_per_iteration = config.num_envs * config.num_steps_per_env
-    runner.logger = TrainingLog(config.num_envs, steps_per_iteration)
+    runner, obs_config = build_runner(config, run_dir)
+    initial = {name: getattr(runner.alg, name) for name in LINEAR_DECAY_FINAL}
 
     iteration, train_time = 0, 0.0
     if checkpoint is not None:
@@ -445,6 +449,8 @@ def train(
     try:
         while iteration < config.iterations:
             runner.current_learning_iteration = iteration  # learn() numbers its iteration from here
+            if config.learning_rate_schedule == "linear":
+                decay_linearly(runner.alg, initial, iteration / config.iterations)
             runner.learn(num_learning_iterations=1)
             iteration += 1
             row = runner.logger.row
@@ -464,14 +470,7 @@ def train(
     summary = training_summary(rows, config, train_time)
 
     def export(path: Path, training: dict) -> Path:
-        return export_policy(
-            runner,
-            path,
-            ablation=config.ablation,
-            observation_config=obs_config,
-            env_config={"layouts": config.layouts, **config.env_kwargs},
-            training=training,
-        )
+        return export_run_policy(runner, config, obs_config, path, training)
 
     if not interrupted and config.validation_episodes:
         try:
@@ -501,6 +500,85 @@ def train(
     summary["exported_iteration"] = exported
     policy_path = export(run_dir / POLICY_FILE, summary)
     return TrainResult(run_dir, policy_path, iteration, train_time, summary)
+
+
+def export_run_policy(runner, config: TrainConfig, obs_config: dict, path: Path, training: dict) -> Path:
+    """Write the runner's current actor as the policy file ``path`` (``policy.export_policy``)."""
+    from cabinbench.baselines.ppo_gail.policy import export_policy
+
+    return export_policy(
+        runner,
+        path,
+        ablation=config.ablation,
+        observation_config=obs_config,
+        env_config={"layouts": config.layouts, **config.env_kwargs},
+        training=training,
+    )
+
+
+def export_latest(config: TrainConfig, run_dir: str | os.PathLike) -> TrainResult:
+    """Export the latest checkpoint of ``run_dir`` as its ``policy.pt`` without training: the policy of a run
+    stopped before its ``iterations`` (its training summary says how far it got; resume the run to go on)."""
+    run_dir = Path(run_dir)
+    checkpoint = latest_checkpoint(run_dir)
+    if checkpoint is None:
+        raise FileNotFoundError(f"{run_dir} holds no checkpoint to export; train first")
+    runner, obs_config = build_runner(config, run_dir)
+    state = load_checkpoint(runner, checkpoint)
+    iteration, train_time = int(state["iter"]), float(state["infos"]["train_time"])
+    rows = [row for row in read_metrics(run_dir / METRICS_FILE) if int(row["iteration"]) <= iteration]
+    summary = training_summary(rows, config, train_time)
+    summary["exported_iteration"] = iteration
+    policy_path = export_run_policy(runner, config, obs_config, run_dir / POLICY_FILE, summary)
+    return TrainResult(run_dir, policy_path, iteration, train_time, summary)
+
+
+def build_runner(config: TrainConfig, run_dir: Path):
+    """The run's rsl-rl ``OnPolicyRunner`` (seeded; demonstrations recorded into ``run_dir`` if missing) and
+    the training envs' observation config. Its logger is a ``TrainingLog``."""
+    from rsl_rl.runners import OnPolicyRunner
+
+    from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
+
+    torch.set_num_threads(config.threads)
+    torch.manual_seed(config.seed)
+    np.random.seed(config.seed)
+
+    demonstrations = expert_demonstrations(config, run_dir) if config.uses_gail else []
+    batched = BatchedCoverageEnv(config.layouts, config.num_envs, seed=config.seed, **config.env_kwargs)
+    env = RslRlVecEnv(batched)
+    obs_config = batched.example_env.observation_config
+    train_cfg = make_train_cfg(
+        config.ablation,
+        expert_demonstrations=demonstrations,
+        expected_observation_config=obs_config,
+        shaping_columns=shaping_columns(batched.example_env.observation_layout),
+        num_steps_per_env=config.num_steps_per_env,
+        num_mini_batches=config.num_mini_batches,
+        hidden_dims=config.hidden_dims,
+        activation=config.activation,
+        init_noise_std=config.init_noise_std,
+        obs_normalization=config.obs_normalization,
+        save_interval=config.save_interval,
+        **config.algorithm,
+    )
+    if config.min_action_std > 0:
+        train_cfg["actor"]["distribution_cfg"]["std_range"] = [config.min_action_std, 1.0e6]
+    with open(run_dir / "rsl_rl.log", "a") as log, contextlib.redirect_stdout(log):
+        runner = OnPolicyRunner(env, train_cfg, log_dir=None, device="cpu")  # prints the models
+    steps_per_iteration = config.num_envs * config.num_steps_per_env
+    runner.logger = TrainingLog(config.num_envs, steps_per_iteration)
+
+    return runner, obs_config
+
+
+def decay_linearly(algorithm, initial: dict, progress: float) -> None:
+    """Set PPO's learning rate, clip range and entropy coefficient ``progress`` (0 to 1) of the way from
+    their ``initial`` values to ``LINEAR_DECAY_FINAL`` (rsl-rl's "fixed" schedule leaves them as set)."""
+    for name, final in LINEAR_DECAY_FINAL.items():
+        setattr(algorithm, name, final + (initial[name] - final) * (1.0 - progress))
+    for group in algorithm.optimizer.param_groups:
+        group["lr"] = algorithm.learning_rate
 
 
 def shaping_columns(layout: dict[str, slice]) -> list[int] | None:
@@ -585,6 +663,7 @@ def training_summary(rows: list[dict], config: TrainConfig, train_time: float, w
         "ablation": config.ablation,
         "layouts": list(config.layouts),
         "iterations": int(rows[-1]["iteration"]) if rows else 0,
+        "iterations_planned": config.iterations,
         "timesteps": int(rows[-1]["timesteps"]) if rows else 0,
         "train_time_s": round(train_time, 1),
         "seed": config.seed,

@@ -63,8 +63,9 @@ rather than a behaviour). ``lidar_noise`` is drawn from the same generator.
 ## Episode End
 
 Terminated when the layout's success criterion is met (``sequential``: every cell cleared;
-``open``: coverage ≥ the layout's ``success_coverage``), or on a bound contact if
-``terminate_on_bound``; truncated after ``max_steps`` (default: the layout's). Each step is 0.1
+``open``: coverage ≥ the layout's ``success_coverage``), on a bound contact if
+``terminate_on_bound``, or on reaching an exit landmark if ``terminate_on_exit`` (the seed's tracking
+training, Table 4.5, ends there); truncated after ``max_steps`` (default: the layout's). Each step is 0.1
 simulated seconds.
 
 ## Info
@@ -86,7 +87,7 @@ replays the episode's commands: :mod:`cabinbench.physics`).
 (``"sequential"`` or ``"open"``), ``reward`` (``"paper"`` or ``"coverage"``), ``n_rays``,
 ``lidar_range`` (m), ``field_of_view`` (rad), ``lidar_noise`` (m, Gaussian), ``coverage_patch``
 (cells per side, 0: none), ``coverage_patch_cell`` (m), ``max_steps``, ``terminate_on_bound``,
-``random_start``, ``render_mode`` (``"rgb_array"``: uint8 H × W × 3, or ``"human"``).
+``terminate_on_exit``, ``random_start``, ``render_mode`` (``"rgb_array"``: uint8 H × W × 3, or ``"human"``).
 """
 
 from __future__ import annotations
@@ -156,6 +157,7 @@ class CoverageEnv(gym.Env):
         coverage_patch_cell: float = 0.25,
         max_steps: int | None = None,
         terminate_on_bound: bool = False,
+        terminate_on_exit: bool = False,
         random_start: bool = False,
         render_mode: str | None = None,
     ):
@@ -166,6 +168,9 @@ class CoverageEnv(gym.Env):
         if reward not in REWARD_PRESETS:
             raise ValueError(f"unknown reward preset {reward!r}; choose one of {REWARD_PRESETS}")
         self.reward_preset, self.terminate_on_bound = reward, terminate_on_bound
+        self.terminate_on_exit = terminate_on_exit
+        self.start_spots = start_cell_spots(self.layout) if random_start else None
+        self.max_steps = max_steps or self.layout.max_steps
         self.render_mode = render_mode
         self.observation_space = observation_space(self.world.observation_size)
         self.observation_layout = self.world.observation_layout  # part name -> slice (cabinbench.observation)
@@ -218,7 +223,12 @@ class CoverageEnv(gym.Env):
         events = self.world.step(action)
         self.tracker.update(events)
         step_reward = reward(self.reward_preset, events, 0, self.world.coverable_pixels)
-        terminated = events.success or (self.terminate_on_bound and events.robots[0].bound_violations > 0)
+        robot = events.robots[0]
+        terminated = (
+            events.success
+            or (self.terminate_on_bound and robot.bound_violations > 0)
+            or (self.terminate_on_exit and robot.exits_reached > 0)
+        )
         truncated = not terminated and self.tracker.steps >= self.max_steps
         return step_reward, terminated, truncated
 

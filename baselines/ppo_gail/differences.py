@@ -1,0 +1,376 @@
+"""Every difference between ``ppo_gail`` (our tuned variant), ``ppo_gail_study`` and the study, as one table.
+
+    python -m cabinbench.baselines.ppo_gail.differences [--out results/differences.md]
+
+The values are read, never typed: ``ppo_gail``'s from ``TrainConfig()`` (the defaults its shipped policy was
+trained with), ``ppo_gail_study``'s from ``study.study_config`` of each stage, and the study's from
+``study.STUDY``; the algorithm's settings not in a config are ``PPOCuriosityGail``'s and ``STUDY_PPO``'s
+defaults. Only the reasons are written here, beside the setting they explain, and the generator refuses a
+reason for a value that does not differ or a difference without its reason. A few settings are not
+configuration but code (who demonstrates, the GAIL reward's form, how the pair is run); their rows say so.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import inspect
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from cabinbench.baselines.ppo_gail.algorithm import STUDY_PPO, PPOCuriosityGail
+from cabinbench.baselines.ppo_gail.study import STAGES, STUDY, study_config
+from cabinbench.baselines.ppo_gail.training import TrainConfig
+from cabinbench.envs.coverage_env import CoverageEnv
+from cabinbench.observation import LIDAR_CHANNELS
+
+N_RAYS = inspect.signature(CoverageEnv).parameters["n_rays"].default  # the lidar every variant trains with
+DEFAULT_OUT = Path("results/differences.md")
+
+
+def derived(values: dict) -> dict:
+    """A config's ``values`` with the quantities the study states instead: samples per update, mini-batch
+    size, training steps, observation size."""
+    buffer = values["num_envs"] * values["num_steps_per_env"]
+    return {
+        **values,
+        "buffer": buffer,
+        "mini_batch": buffer // values["num_mini_batches"],
+        "steps": buffer * values["iterations"],
+        "observation_size": N_RAYS * len(LIDAR_CHANNELS) + values["coverage_patch"] ** 2 + 2,
+    }
+
+
+def config_settings(config: TrainConfig) -> dict:
+    """A config's fields, its algorithm's settings (with the defaults it leaves) and the derived ones."""
+    defaults = {
+        name: parameter.default
+        for name, parameter in inspect.signature(PPOCuriosityGail.__init__).parameters.items()
+        if parameter.default is not inspect.Parameter.empty
+    }
+    return derived({**dataclasses.asdict(config), **defaults, **STUDY_PPO, **config.algorithm})
+
+
+def study_settings(stage: str) -> dict:
+    return {name: stated.of(stage) for name, stated in STUDY.items()}
+
+
+def _steps(steps: int) -> str:
+    return f"{steps / 1e6:.2f} M"
+
+
+def _layers(dims) -> str:
+    return f"{len(dims)} x {dims[0]}"
+
+
+def _yes_no(value: bool) -> str:
+    return "yes" if value else "no"
+
+
+@dataclass(frozen=True)
+class Row:
+    """A setting read from the configs (``key`` in ``config_settings`` / ``study_settings``), shown by
+    ``show``; ``why`` gives, per variant, the reason it differs from the study (or, where the study is
+    silent, why it has its value)."""
+
+    setting: str
+    key: str
+    show: Callable[[object], str] = str
+    why_ppo_gail: str = ""
+    why_study: str = ""
+
+
+@dataclass(frozen=True)
+class CodeRow:
+    """A setting fixed in code rather than configuration: its values are stated here."""
+
+    setting: str
+    study: str  # "not stated" where the study does not give it
+    ppo_gail_study: str
+    ppo_gail: str
+    source: str = ""  # where the study states its value
+    why_ppo_gail: str = ""
+    why_study: str = ""
+
+
+UNTESTED = "chosen for a CPU's throughput; no trial against the study's value is recorded"
+
+ROWS: list[Row | CodeRow] = [
+    CodeRow(
+        "networks trained",
+        "two, apart: cleaning and tracking",
+        "two, apart: cleaning and tracking",
+        "one, on both cells at once (half the envs each)",
+        source="§4.3.3, §5.2.1",
+        why_ppo_gail="one policy tells cleaning from tracking by what its lidar sees, so it runs a cabin "
+        "zero-shot with no switch (training.py)",
+    ),
+    Row("training layouts", "layouts", " + ".join, why_ppo_gail="one policy learns both tasks"),
+    Row(
+        "reward",
+        "reward",
+        why_ppo_gail="the dense `coverage` preset pays for area, what the benchmark scores; with `paper` "
+        "the episode ends at the last goal marker and trial policies covered less (docs/experiments.md, "
+        "Reward preset)",
+    ),
+    Row(
+        "episode ends on a bound contact",
+        "terminate_on_bound",
+        _yes_no,
+        why_ppo_gail="ending the episode was an exit from the mostly negative GAIL reward: trial agents "
+        "drove into the bound (docs/experiments.md, Ending episodes on a bound)",
+    ),
+    Row(
+        "episode ends at the exit landmark",
+        "terminate_on_exit",
+        _yes_no,
+        why_ppo_gail="one policy goes on to clean the next cell, as it must in a cabin",
+    ),
+    Row(
+        "coverage patch in the observation (cells across)",
+        "coverage_patch",
+        why_ppo_gail="lidar alone cannot tell a cleaned aisle from a dirty one: every lidar-only policy "
+        "covered 0.40-0.64 of a320_cell (docs/experiments.md, Coverage patch). The study avoided maps on "
+        "purpose (§4.3.2)",
+    ),
+    Row(
+        "observation size",
+        "observation_size",
+        why_ppo_gail="64 lidar rays x 6 values, the coverage patch, speed and turn rate",
+        why_study="the benchmark's lidar: 64 rays, each a distance and a one-hot of 5 tags. The study gives "
+        "244 inputs but not its ray count; its velocity is a world-frame Vector3 (x, 0, z), ours the "
+        "robot's speed and turn rate",
+    ),
+    Row(
+        "hidden layers (actor and critic)",
+        "hidden_dims",
+        _layers,
+        why_ppo_gail="small networks: on a CPU the update dominates the iteration time (training.py)",
+    ),
+    Row(
+        "activation", "activation", why_ppo_gail="rsl-rl's default", why_study="not stated: rsl-rl's default"
+    ),
+    Row(
+        "observation normalisation",
+        "obs_normalization",
+        _yes_no,
+        why_ppo_gail="rsl-rl's usual setting: the lidar's tags are rare one-hots and weigh like the "
+        "distances once normalised; no trial against the study's value is recorded",
+    ),
+    Row("rollout per env and update (time_horizon)", "num_steps_per_env", why_ppo_gail=UNTESTED),
+    Row("samples per update (buffer_size)", "buffer", why_ppo_gail=UNTESTED),
+    Row(
+        "parallel envs",
+        "num_envs",
+        why_ppo_gail="many short rollouts per update",
+        why_study="not stated: 16 rollouts of 128 steps fill the study's buffer of 2048",
+    ),
+    Row("mini-batch (batch_size)", "mini_batch", why_ppo_gail=UNTESTED),
+    Row("epochs per update", "num_learning_epochs"),
+    Row("PPO learning rate (initial)", "learning_rate"),
+    CodeRow("extrinsic reward strength", "1.0", "1.0", "1.0", source="Table 5.3"),
+    CodeRow("recurrent network", "no", "no", "no", source="Table 5.2: use_recurrent"),
+    Row(
+        "schedule of learning rate, clip and entropy",
+        "learning_rate_schedule",
+        why_ppo_gail="a fixed rate; rsl-rl's adaptive one scored lower (docs/experiments.md, Learning-rate "
+        "schedule). The linear decay was not tried",
+    ),
+    Row(
+        "entropy coefficient (beta)",
+        "entropy_coef",
+        why_ppo_gail="with 0.01 the policy's std collapsed to 0.04 and it circled in place "
+        "(docs/experiments.md, Entropy bonus)",
+    ),
+    Row("clip range (epsilon)", "clip_param"),
+    Row("GAE lambda", "lam"),
+    Row("discount (every reward signal)", "gamma"),
+    Row(
+        "lower clamp of the policy's std",
+        "min_action_std",
+        why_ppo_gail="the discriminator pushes the std down; the clamp keeps the policy exploring "
+        "(docs/experiments.md, Action std)",
+        why_study="not stated; ML-Agents does not clamp it",
+    ),
+    Row("curiosity strength", "curiosity_strength"),
+    Row("curiosity encoding size", "curiosity_encoding_size"),
+    Row(
+        "GAIL strength",
+        "gail_strength",
+        why_ppo_gail="at 0.3 the policy imitated the expert's lidar view and ignored the coverage patch: "
+        "0.53 of a320_cell, no full_cabin cell (docs/experiments.md, GAIL strength)",
+    ),
+    Row("GAIL discriminator hidden layers (encoding_size)", "gail_hidden_dims", _layers),
+    CodeRow(
+        "GAIL reward",
+        "not stated",
+        "logit log D - log(1 - D), centred on the rollout's mean",
+        "logit log D - log(1 - D), centred on the rollout's mean",
+        why_ppo_gail="uncentred, the mostly negative logit pays the agent to end episodes early "
+        "(docs/experiments.md, GAIL reward centring)",
+        why_study="not stated; this package's one GAIL",
+    ),
+    CodeRow(
+        "GAIL discriminator input",
+        "not stated",
+        "observation and action",
+        "observation and action",
+        why_ppo_gail="Ho & Ermon's D(s, a)",
+        why_study="not stated (ML-Agents' default `use_actions: false` shows it the observation only)",
+    ),
+    Row(
+        "training steps",
+        "steps",
+        _steps,
+        why_ppo_gail="about 20 minutes on a 2-core CPU; the ablations share the budget (docs/experiments.md, "
+        "Training budget and time)",
+    ),
+    CodeRow(
+        "demonstrator",
+        "a person at the keyboard: 4827 steps in all for cleaning, 944 for tracking",
+        "the boustrophedon planner, deterministic: its episodes repeat one trajectory",
+        "the boustrophedon planner, deterministic: its episodes repeat one trajectory",
+        source="§4.3.4",
+        why_ppo_gail="no human demonstrations are public; the planner is the expert the benchmark has",
+        why_study="no human demonstrations are public; the planner is the expert the benchmark has",
+    ),
+    Row(
+        "demonstration episodes per cell",
+        "demo_episodes",
+        why_ppo_gail="the planner's episodes are identical; more would add no data",
+    ),
+    Row(
+        "random start pose per episode",
+        "random_start",
+        _yes_no,
+        why_ppo_gail="the policy must clean a cell from wherever it enters it (docs/experiments.md, Random "
+        "start poses)",
+        why_study="not stated: the layout's start, where the demonstrations start",
+    ),
+    CodeRow(
+        "training statistics logged every",
+        "20000 / 10000 steps",
+        "update (2048 steps)",
+        "update (4096 steps)",
+        source="Table 5.2: summary_freq",
+        why_ppo_gail="`metrics.csv` keeps a row per update; it changes what is logged, not what is learnt",
+        why_study="`metrics.csv` keeps a row per update; it changes what is logged, not what is learnt",
+    ),
+    Row(
+        "episode step limit",
+        "max_steps",
+        lambda steps: "the layout's (1500)" if steps is None else str(steps),
+        why_ppo_gail="the benchmark's limit for the training cells",
+        why_study="not stated: the benchmark's limit for the training cells",
+    ),
+    CodeRow(
+        "running the trained policy in a cabin",
+        "cleaning and tracking alternate as each cell is cleaned",
+        "cleaning and tracking alternate as each cell is cleaned",
+        "the one network throughout",
+        source="§4.3.2, Fig. 4.15; `ppo_gail_study` reads the cell's state from the env's info",
+        why_ppo_gail="one network for both tasks",
+    ),
+]
+
+
+def _joined(values: list[str]) -> str:
+    return values[0] if len(set(values)) == 1 else " / ".join(values)
+
+
+def table_rows() -> list[dict]:
+    """Each row's setting, the three values and the reasons, checked: a reason where a value differs from the
+    study's (or the study is silent), none where it does not."""
+    ppo_gail = config_settings(TrainConfig())
+    study_configs = [config_settings(study_config(stage)) for stage in STAGES]
+    study = [study_settings(stage) for stage in STAGES]
+    rows = []
+    for row in ROWS:
+        if isinstance(row, CodeRow):
+            source = f" ({row.source})" if row.source else ""
+            values = {
+                "study": row.study + source,
+                "ppo_gail_study": row.ppo_gail_study,
+                "ppo_gail": row.ppo_gail,
+            }
+            stated = row.study != "not stated"
+            differs = {
+                name: not stated or values[name] != row.study for name in ("ppo_gail", "ppo_gail_study")
+            }
+        else:
+            stated = all(values.get(row.key) is not None for values in study)
+            ours_study = [row.show(values[row.key]) for values in study_configs]
+            theirs = [row.show(values[row.key]) for values in study] if stated else None
+            ours = row.show(ppo_gail[row.key])
+            source = ""
+            if row.key in STUDY:
+                source = f" ({STUDY[row.key].source})"
+            values = {
+                "study": (_joined(theirs) + source) if stated else "not stated",
+                "ppo_gail_study": _joined(ours_study),
+                "ppo_gail": ours,
+            }
+            differs = {
+                "ppo_gail": not stated or any(ours != value for value in theirs),
+                "ppo_gail_study": not stated or ours_study != theirs,
+            }
+        for name, why in (("ppo_gail", row.why_ppo_gail), ("ppo_gail_study", row.why_study)):
+            if differs[name] and not why:
+                raise ValueError(
+                    f"{row.setting}: {name} differs from the study ({values[name]}) without a reason"
+                )
+            if why and not differs[name]:
+                raise ValueError(
+                    f"{row.setting}: a reason for {name}, whose value is the study's ({values[name]})"
+                )
+        rows.append(
+            {"setting": row.setting, **values, "why_ppo_gail": row.why_ppo_gail, "why_study": row.why_study}
+        )
+    return rows
+
+
+def markdown() -> str:
+    lines = [
+        "# The learned baselines against the study",
+        "",
+        "Generated by `python -m cabinbench.baselines.ppo_gail.differences` from the configs: `ppo_gail` is "
+        "our tuned variant (`TrainConfig`'s defaults), `ppo_gail_study` the study's configuration as "
+        "written (`baselines/ppo_gail/study.py`), the study is Xia (2020), §4.3 and §5.2. Two values joined "
+        "by / are the cleaning and the tracking network's. A value in **bold** differs from the study's; "
+        '"not stated": the study does not give it.',
+        "",
+        "| setting | the study | `ppo_gail_study` | `ppo_gail` (ours) | why `ppo_gail` differs (or, where "
+        "the study is silent, has this value) | why `ppo_gail_study` does |",
+        "|---|---|---|---|---|---|",
+    ]
+    for row in table_rows():
+        cells = [
+            row["setting"],
+            row["study"],
+            f"**{row['ppo_gail_study']}**" if row["why_study"] else row["ppo_gail_study"],
+            f"**{row['ppo_gail']}**" if row["why_ppo_gail"] else row["ppo_gail"],
+            row["why_ppo_gail"],
+            row["why_study"],
+        ]
+        lines.append("| " + " | ".join(cell.replace("|", "\\|") for cell in cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m cabinbench.baselines.ppo_gail.differences",
+        description="Write the table of differences between ppo_gail, ppo_gail_study and the study.",
+    )
+    parser.add_argument(
+        "--out", type=Path, default=DEFAULT_OUT, help=f"the Markdown file (default {DEFAULT_OUT})"
+    )
+    args = parser.parse_args(argv)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(markdown())
+    print(args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

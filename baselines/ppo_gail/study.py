@@ -1,0 +1,117 @@
+"""``ppo_gail_study``: the study's learner configured as the study describes it (§4.3, §5.2.1).
+
+The study (Xia 2020) trains two networks apart, with ML-Agents' PPO + curiosity + GAIL:
+
+- a *cleaning* network on the cleaning cell (``a320_cell``) with the rewards of Table 4.4, for 6 M steps;
+- a *tracking* network on the tracking cell (``a320_tracking_cell``) with the rewards of Table 4.5, whose
+  episode ends when the robot reaches the green exit landmark (or a bound), for 2 M steps;
+
+both seeing only their lidar and velocity (Table 4.3; §4.3.2 rules out global coordinates), with the
+hyperparameters of Tables 5.2 and 5.3, and GAIL fed by demonstrations of each task (§4.3.4). After training
+the two alternate cell by cell (Fig. 4.15): ``policy.PPOGailStudy`` runs the pair.
+
+``STUDY`` holds the study's values, each where the study states it, in this package's terms; the two
+``TrainConfig`` of ``study_config`` are built from it, and ``differences.py`` compares it with them and with
+``ppo_gail`` (our tuned variant, ``TrainConfig``'s defaults). Train a stage with
+``python -m cabinbench.train --baseline ppo_gail_study --stage cleaning|tracking``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+from cabinbench.baselines.ppo_gail.training import TrainConfig
+
+STAGES = ("cleaning", "tracking")
+
+
+@dataclass(frozen=True)
+class Stated:
+    """One value of the study: for both stages, or ``(cleaning, tracking)`` when ``per_stage``."""
+
+    value: object
+    source: str
+    per_stage: bool = False
+
+    def of(self, stage: str):
+        return self.value[STAGES.index(stage)] if self.per_stage else self.value
+
+
+STUDY: dict[str, Stated] = {
+    # TrainConfig field (or key of its ``algorithm``): the study's value in this package's terms
+    "layouts": Stated((["a320_cell"], ["a320_tracking_cell"]), "§4.3.2, Fig. 4.11", per_stage=True),
+    "reward": Stated("paper", "Tables 4.4, 4.5"),
+    "terminate_on_bound": Stated(True, "Table 4.5 and §4.3.3: reaching a bound ends the iteration"),
+    "terminate_on_exit": Stated(
+        (False, True), "Table 4.5: reaching the green landmark completes the iteration", per_stage=True
+    ),
+    "coverage_patch": Stated(0, "Table 4.3, §4.3.2: only rays and velocity"),
+    "hidden_dims": Stated([512, 512], "Table 5.2: hidden_units 512, num_layers 2"),
+    "obs_normalization": Stated(False, "Table 5.2: normalize FALSE"),
+    "num_steps_per_env": Stated(128, "Table 5.2: time_horizon"),
+    "buffer": Stated(2048, "Table 5.2: buffer_size, samples per update"),
+    "mini_batch": Stated(128, "Table 5.2: batch_size"),
+    "steps": Stated((6_000_000, 2_000_000), "Table 5.2: max_steps", per_stage=True),
+    "learning_rate_schedule": Stated(
+        "linear",
+        "inferred: Table 5.2 gives the initial learning rate, and ML-Agents' default learning_rate_schedule "
+        "decays it, epsilon and beta linearly to max_steps",
+    ),
+    "entropy_coef": Stated(0.01, "Table 5.2: beta"),
+    "learning_rate": Stated(3.0e-4, "Table 5.2"),
+    "clip_param": Stated(0.2, "Table 5.2: epsilon"),
+    "lam": Stated(0.95, "Table 5.2: lambda"),
+    "num_learning_epochs": Stated(3, "Table 5.2: num_epoch"),
+    "gamma": Stated(0.99, "Table 5.3: gamma of every reward signal"),
+    "curiosity_strength": Stated(0.02, "Table 5.3"),
+    "curiosity_encoding_size": Stated(256, "Table 5.3"),
+    "gail_strength": Stated(0.3, "Table 5.3"),
+    "gail_hidden_dims": Stated([128, 128], "Table 5.3: encoding_size 128 (ML-Agents: 2 layers of it)"),
+    "demo_episodes": Stated((34, 32), "§4.3.4, Figs. 4.16, 4.17: 34 and 32 episodes", per_stage=True),
+    "observation_size": Stated(244, "Fig. 4.16: Vector Observation Size 244 (rays and velocity)"),
+}
+"""The study's settings. Those named like ``TrainConfig`` fields or ``ALGORITHM_KEYS`` make ``study_config``;
+``differences.py`` compares them all, and lists what the study leaves unstated beside them."""
+
+ALGORITHM_KEYS = (
+    "entropy_coef",
+    "learning_rate",
+    "clip_param",
+    "lam",
+    "num_learning_epochs",
+    "gamma",
+    "curiosity_strength",
+    "curiosity_encoding_size",
+    "gail_strength",
+    "gail_hidden_dims",
+)
+"""The settings of ``STUDY`` that are ``PPOCuriosityGail`` arguments (``TrainConfig.algorithm``)."""
+
+UNSTATED = {
+    # TrainConfig fields the study does not give, and what ppo_gail_study takes for them
+    "random_start": False,  # the layout's start, as in the demonstrations
+    "min_action_std": 0.0,  # ML-Agents does not clamp the policy's std
+    "validation_episodes": 0,  # the study watched TensorBoard only; and at 512 x 2 validation is slow
+    "save_interval": 25,  # a checkpoint every 51 200 steps: an interruption loses little
+}
+
+
+def study_config(stage: str, **overrides) -> TrainConfig:
+    """The ``TrainConfig`` of the study's cleaning or tracking training (``overrides`` on top)."""
+    if stage not in STAGES:
+        raise ValueError(f"unknown stage {stage!r}; choose one of {', '.join(STAGES)}")
+    known = {field.name for field in dataclasses.fields(TrainConfig)}
+    fields = {name: stated.of(stage) for name, stated in STUDY.items() if name in known}
+    buffer = STUDY["buffer"].of(stage)
+    fields["num_envs"] = buffer // fields["num_steps_per_env"]  # the study's buffer from envs' rollouts
+    fields["num_mini_batches"] = buffer // STUDY["mini_batch"].of(stage)
+    fields["iterations"] = math.ceil(STUDY["steps"].of(stage) / buffer)  # ML-Agents stops at max_steps
+    algorithm = {name: STUDY[name].of(stage) for name in ALGORITHM_KEYS}
+    return TrainConfig(**{"ablation": "ppo_gail", "algorithm": algorithm, **fields, **UNSTATED, **overrides})
+
+
+def stage_name(stage: str) -> str:
+    """The name a stage's run, policy file and records go by: ``ppo_gail_study_cleaning`` ..."""
+    return f"ppo_gail_study_{stage}"
