@@ -228,9 +228,10 @@ def learner_rows(configs: dict[str, dict | None], results: Path) -> list[str]:
                     "Tables 4.3, 5.2, 5.3",
                     f"`{learner}`",
                     "—",
-                    "not yet trained: no configuration",
+                    f"no training record in `results/training/{learner}/`",
                     "not",
-                    "the study's learner has no shipped policy yet",
+                    "not trained to the study's budget: see `results/differences.md` and the shipped "
+                    "policies' `.training.json` (steps reached of those planned)",
                 )
             )
             continue

@@ -55,7 +55,7 @@ def test_the_report_measures_each_claim(results):
     assert table["`ppo_gail_study` observes"][2:] == ["lidar (384) + velocity (2)", "**reproduced**"]
     assert table["`ppo_gail_study` hidden layers"][3] == "**reproduced**"
     assert table["`ppo_gail_study` training steps"][2:] == ["0.0M on a320_cell", "**not**"]
-    assert table["`ppo_gail`"][2] == "not yet trained: no configuration"  # none in this folder
+    assert table["`ppo_gail`"][2] == "no training record in `results/training/ppo_gail/`"  # none here
     # the random episodes, measured from the records: never completed in 100 steps
     assert table["random motion never completes (`random_bounce_study`)"][2:] == [
         "0 of 3 in 100 steps",
@@ -69,9 +69,7 @@ def test_the_report_measures_each_claim(results):
     assert not any(claim.startswith("RL ") for claim in table)
 
 
-def test_an_untrained_learner_is_said_to_be(results, tmp_path):
+def test_a_learner_without_training_records_is_said_to_have_none(results, tmp_path):
     table = rows(reproduction_table(read_records(results / "runs"), tmp_path))
-    assert table["`ppo_gail_study`"][2:] == [
-        "not yet trained: no configuration",
-        "**not**: the study's learner has no shipped policy yet",
-    ]
+    assert table["`ppo_gail_study`"][2] == "no training record in `results/training/ppo_gail_study/`"
+    assert table["`ppo_gail_study`"][3].startswith("**not**: not trained to the study's budget")
