@@ -1,9 +1,10 @@
-"""The world's pymunk side: one episode's space of static walls and bounds and dynamic disc robots
-driven by velocity commands, with its contact counts.
+"""The world's pymunk side: a layout's space of static walls and bounds and, per episode, dynamic
+disc robots driven by velocity commands, with their contact counts.
 
-A :class:`Physics` is built per episode (Chipmunk caches contact state: a reused space would not
-repeat an episode). It logs every command it is given, so that a copy (``copy.deepcopy``, pickle)
-rebuilds the space and replays the episode: Chipmunk's cached contacts (arbiters, their
+A :class:`Physics` is built once per world; each :meth:`Physics.reset` puts new robots into it
+and leaves it as a new space would be (Chipmunk caches contact state, and numbers its shapes). It
+logs every command it is given, so that a copy (``copy.deepcopy``, pickle) rebuilds the space and
+replays the episode: Chipmunk's cached contacts (arbiters, their
 accumulated impulses) cannot be read or written through pymunk, and a space restored from
 pymunk's own pickle leaves them out and drifts from the original within a few contacts.
 """
@@ -27,21 +28,47 @@ WALL_CONTACT, ROBOT_CONTACT, BOUND_CONTACT = 0, 1, 2  # the columns of a robot's
 
 
 class Physics:
-    """The pymunk space of one episode, robots at ``poses`` ((K, 3): x, y, heading); every passage's
-    bounds are built but start out of the space (open)."""
+    """The pymunk space of a layout: its walls, built once, and per episode (:meth:`reset`) disc robots
+    at given poses and every passage's bounds, built but out of the space (open)."""
 
-    def __init__(self, layout: Layout, poses: np.ndarray):
-        self.layout, self.start_poses = layout, np.array(poses, dtype=np.float64)
-        self.commands = array.array("d")  # every drive: robot's motor (vx, vy, turn rate), in order
-        self.bound_changes: list[tuple[int, int, bool]] = []  # (steps done, passage, solid)
-        self.steps = 0
+    def __init__(self, layout: Layout):
+        self.layout = layout
         self.space = space = pymunk.Space()
         space.collision_slop = 0.002  # Chipmunk's default (0.1) is meant for pixels, not metres
         space.add(*[_segment(space, wall, WALL_TYPE) for wall in layout.walls])
+        # Chipmunk numbers each shape it is given; robots and bounds are numbered from here in every
+        # episode, as in a freshly built space (the numbers order its hash sets).
+        self._space = space._space
+        self._first_episode_shape = chipmunk.cpSpaceGetShapeIDCounter(self._space)
         self.bound_shapes = [
             [_segment(space, bound, BOUND_TYPE) for bound in passage.bounds] for passage in layout.passages
         ]
-        radius = layout.robot.radius
+        self.bodies, self.motors, self.start_poses = [], [], None
+        space.on_collision(ROBOT_TYPE, WALL_TYPE, begin=self._on_wall_contact)
+        space.on_collision(ROBOT_TYPE, BOUND_TYPE, begin=self._on_bound_contact)
+        space.on_collision(ROBOT_TYPE, ROBOT_TYPE, begin=self._on_robot_contact)
+
+    def reset(self, poses: np.ndarray) -> None:
+        """Start an episode with the robots at ``poses`` ((K, 3): x, y, heading), every bound open.
+
+        The last episode's robots and bounds leave the space and new robots enter it. That leaves
+        the space as a freshly built one (a building's tens of thousands of wall segments take a
+        second to build): Chipmunk drops every cached contact of a shape it removes, its index of
+        the walls is what it was before the bounds entered, and the new shapes get the numbers they
+        would get in a new space. So an episode does not depend on those before it (tested).
+        """
+        space = self.space
+        leaving = [shape for shapes in self.bound_shapes for shape in shapes if shape.space is not None]
+        for body, motor in zip(self.bodies, self.motors):
+            leaving += [*body.constraints, *body.shapes, body, motor]
+        if leaving:
+            space.remove(*leaving)
+        chipmunk.cpSpaceSetShapeIDCounter(self._space, self._first_episode_shape)
+        self.start_poses = np.array(poses, dtype=np.float64)
+        self.commands = array.array("d")  # every drive: robot's motor (vx, vy, turn rate), in order
+        self.bound_changes: list[tuple[int, int, bool]] = []  # (steps done, passage, solid)
+        self.steps = 0
+        radius = self.layout.robot.radius
         self.bodies, self.motors = [], []
         for index, (x, y, heading) in enumerate(self.start_poses.tolist()):
             body = pymunk.Body(ROBOT_MASS, pymunk.moment_for_circle(ROBOT_MASS, 0.0, radius))
@@ -65,13 +92,9 @@ class Physics:
         # pymunk's wrappers (Space.step's bookkeeping for changes made during a step, Vec2d results)
         # cost more than the physics of these small scenes. Nothing is added to or removed from the
         # space during a step and no post-step callback is used, so that bookkeeping is not needed.
-        self._space = space._space
         self._bodies = [body._body for body in self.bodies]
         self._motors = [motor._body for motor in self.motors]
         self.contacts = self._no_contacts()
-        space.on_collision(ROBOT_TYPE, WALL_TYPE, begin=self._on_wall_contact)
-        space.on_collision(ROBOT_TYPE, BOUND_TYPE, begin=self._on_bound_contact)
-        space.on_collision(ROBOT_TYPE, ROBOT_TYPE, begin=self._on_robot_contact)
 
     def set_bound(self, passage: int, solid: bool) -> None:
         """Put a passage's bounds into the space (solid) or take them out."""
@@ -113,13 +136,16 @@ class Physics:
 
     def __reduce__(self):
         # a copy replays the episode (see the module docstring); bodies moved by hand are not replayed
+        if self.start_poses is None:
+            return Physics, (self.layout,)
         return _replay, (self.layout, self.start_poses, self.commands, self.bound_changes)
 
 
 def _replay(layout: Layout, start_poses: np.ndarray, commands: array.array, bound_changes: list) -> Physics:
-    """A :class:`Physics` that has been given ``commands`` and ``bound_changes`` from the start, as the
-    original was: the same space, cached contacts included."""
-    physics = Physics(layout, start_poses)
+    """A :class:`Physics` that has been given ``commands`` and ``bound_changes`` since its reset to
+    ``start_poses``, as the original was: the same space, cached contacts included."""
+    physics = Physics(layout)
+    physics.reset(start_poses)
     per_step = 3 * len(physics.bodies)
     changes = iter(bound_changes)
     change = next(changes, None)

@@ -7,7 +7,8 @@
 - :mod:`cabinbench.observation`: where each part of an observation lies, and its writer.
 
 :class:`World` ties them into one step: drive, move, stamp the footprints, update the protocol.
-The pymunk space is rebuilt on every reset because Chipmunk caches contact state.
+The pymunk space of the walls is built once per world; a reset puts new robots into it
+(:meth:`cabinbench.physics.Physics.reset`).
 """
 
 from __future__ import annotations
@@ -100,11 +101,12 @@ class World:
         self.floor_mask, self.coverable_mask = self.raster.floor_mask, self.raster.coverable_mask
         self.cell_of, self.coverable_pixels = self.raster.cell_of, self.raster.coverable_pixels
         self._no_noise = np.zeros(0)
+        self.physics = Physics(layout)
 
     def reset(self, rng: np.random.Generator, poses: np.ndarray | None = None) -> None:
         """Start an episode with the robots at ``poses`` ((K, 3): x, y, heading; default ``start_poses``)."""
         self.rng = rng
-        self.physics = Physics(self.layout, self.start_poses if poses is None else poses)
+        self.physics.reset(self.start_poses if poses is None else poses)
         self._poses = np.array(self.physics.poses())
         self.cell_protocol.reset(self.physics)
         self.raster.reset()
