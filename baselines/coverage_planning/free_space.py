@@ -10,15 +10,13 @@ shortcuts) and geodesic distances between pixels (the route's costs).
 
 from __future__ import annotations
 
-import heapq
 import math
 from collections.abc import Sequence
 from functools import cached_property
 
 import numpy as np
+from numba import njit
 from scipy import sparse
-from scipy.sparse.csgraph import dijkstra
-from scipy.spatial.distance import cdist
 
 SQRT2 = math.sqrt(2.0)
 
@@ -50,9 +48,12 @@ def segment_is_free(free: np.ndarray, start: Sequence[float], end: Sequence[floa
 class FreeSpace:
     """A centre-free raster prepared for repeated A* searches and geodesic distance queries.
 
-    A* runs in pure Python over a flat list with a one-pixel obstacle border, so that the inner
-    loop needs no bounds checks. Geodesic distances use the same 8-connected graph (diagonal
-    moves only where both side pixels are free) as a sparse matrix for scipy's Dijkstra.
+    Both searches run compiled (numba) on the same 8-connected pixel graph (diagonal moves only
+    where both side pixels are free), over a flat copy of the raster with a one-pixel obstacle
+    border so that the inner loop needs no bounds checks. Their scratch arrays span the raster and
+    are kept between searches, each search resetting only the pixels it touched: a building map's
+    route makes thousands of short searches. ``graph`` is the same graph as a sparse matrix, for
+    scipy's Dijkstra.
     """
 
     def __init__(self, free: np.ndarray, search_radius_px: float = math.inf):
@@ -62,9 +63,10 @@ class FreeSpace:
         self.padded_width = width + 2
         padded = np.zeros((height + 2, width + 2), dtype=bool)
         padded[1:-1, 1:-1] = self.free
-        self.free_flat = padded.ravel().tolist()
+        self.free_flat = padded.ravel()
         self.node_id = np.full(self.free.shape, -1, dtype=np.int64)
         self.node_id[self.free] = np.arange(int(self.free.sum()))
+        self._scratch = _Scratch(self.free_flat.size)
 
     @cached_property
     def graph(self) -> sparse.csr_matrix:
@@ -88,49 +90,27 @@ class FreeSpace:
             shape=(node_count, node_count),
         )
 
+    def _flat(self, pixel: Sequence[int]) -> int:
+        return (int(pixel[0]) + 1) * self.padded_width + int(pixel[1]) + 1
+
     def astar(self, start: Sequence[int], goal: Sequence[int]) -> np.ndarray | None:
         """Shortest 8-connected pixel path from start to goal (inclusive), or None."""
-        width = self.padded_width
-        free = self.free_flat
-        start_node = (start[0] + 1) * width + start[1] + 1
-        goal_node = (goal[0] + 1) * width + goal[1] + 1
-        if not (free[start_node] and free[goal_node]):
+        start_node, goal_node = self._flat(start), self._flat(goal)
+        if not (self.free_flat[start_node] and self.free_flat[goal_node]):
             return None
-        goal_row, goal_col = divmod(goal_node, width)
-        # (offset, step cost, the two side neighbours a diagonal step must not cut between)
-        moves = [(1, 1.0, 0, 0), (-1, 1.0, 0, 0), (width, 1.0, 0, 0), (-width, 1.0, 0, 0)]
-        moves += [(dr * width + dc, SQRT2, dr * width, dc) for dr in (-1, 1) for dc in (-1, 1)]
-        best_cost = {start_node: 0.0}
-        parent = {start_node: start_node}
-        heap = [(0.0, 0.0, start_node)]
-        closed = set()
-        while heap:
-            _, negative_cost, node = heapq.heappop(heap)
-            if node == goal_node:
-                break
-            if node in closed:
-                continue
-            closed.add(node)
-            cost = -negative_cost
-            for offset, step, side_a, side_b in moves:
-                neighbour = node + offset
-                if not free[neighbour] or (side_a and not (free[node + side_a] and free[node + side_b])):
-                    continue
-                new_cost = cost + step
-                if new_cost < best_cost.get(neighbour, math.inf):
-                    best_cost[neighbour] = new_cost
-                    parent[neighbour] = node
-                    row, col = divmod(neighbour, width)
-                    d_row, d_col = abs(row - goal_row), abs(col - goal_col)
-                    octile = d_row + d_col + (SQRT2 - 2.0) * min(d_row, d_col)
-                    # Ties on f go to the larger cost so far, i.e. the node nearer the goal.
-                    heapq.heappush(heap, (new_cost + octile, -new_cost, neighbour))
-        else:
+        scratch = self._scratch
+        nodes = _astar(
+            self.free_flat,
+            self.padded_width,
+            start_node,
+            goal_node,
+            scratch.cost,
+            scratch.parent,
+            scratch.closed,
+        )
+        if nodes is None:
             return None
-        path = [goal_node]
-        while path[-1] != start_node:
-            path.append(parent[path[-1]])
-        rows, cols = np.divmod(np.array(path[::-1]), width)
+        rows, cols = np.divmod(nodes, self.padded_width)
         return np.column_stack((rows - 1, cols - 1))
 
     def shortcut(self, pixel_path: np.ndarray) -> np.ndarray:
@@ -168,20 +148,223 @@ class FreeSpace:
         Pairs beyond the radius get (radius + straight-line distance): larger than every exact
         distance, and still ordered by how far apart the pixels are.
         """
-        pixels = np.asarray(pixels, dtype=int)
-        nodes = self.node_id[pixels[:, 0], pixels[:, 1]]
-        unique_nodes, inverse = np.unique(nodes, return_inverse=True)
-        radius = self.search_radius_px
-        # A few sources at a time: Dijkstra returns a dense row over the whole raster per source.
-        rows_per_batch = max(1, 2**22 // self.graph.shape[0])
-        distances = np.vstack(
-            [
-                dijkstra(self.graph, directed=False, indices=batch, limit=radius)[:, unique_nodes]
-                for batch in np.array_split(unique_nodes, math.ceil(len(unique_nodes) / rows_per_batch))
-            ]
+        pixels = np.asarray(pixels, dtype=np.int64)
+        flat = (pixels[:, 0] + 1) * self.padded_width + pixels[:, 1] + 1
+        sources, inverse = np.unique(flat, return_inverse=True)
+        scratch = self._scratch
+        distances = _bounded_distances(
+            self.free_flat,
+            self.padded_width,
+            sources,
+            self.search_radius_px,
+            *(scratch.cost, scratch.closed, scratch.target),
         )
-        distances = distances[np.ix_(inverse, inverse)]
-        return np.where(np.isfinite(distances), distances, radius + cdist(pixels, pixels))
+        return _spread(distances, inverse.ravel(), pixels, self.search_radius_px)
+
+
+class _Scratch:
+    """The searches' per-pixel arrays, kept clean between searches (each resets what it touched)."""
+
+    def __init__(self, size: int):
+        self.cost = np.full(size, np.inf)
+        self.parent = np.zeros(size, dtype=np.int64)
+        self.closed = np.zeros(size, dtype=np.bool_)
+        self.target = np.full(size, -1, dtype=np.int64)
+
+
+@njit(cache=True)
+def _spread(distances, inverse, pixels, radius):
+    """The distances between the sources as the distances between ``pixels`` (source
+    ``inverse[k]`` is pixel k), (radius + straight-line distance) where the search stopped."""
+    count = len(inverse)
+    spread = np.empty((count, count))
+    for a in range(count):
+        for b in range(count):
+            distance = distances[inverse[a], inverse[b]]
+            if distance == np.inf:
+                d_row, d_col = pixels[a, 0] - pixels[b, 0], pixels[a, 1] - pixels[b, 1]
+                distance = radius + np.sqrt(d_row * d_row + d_col * d_col)
+            spread[a, b] = distance
+    return spread
+
+
+@njit(cache=True)
+def _moves(width):
+    """(offset, step cost, the two side neighbours a diagonal step must not cut between) of the 8 moves."""
+    offsets = np.array([1, -1, width, -width, -width - 1, -width + 1, width - 1, width + 1])
+    steps = np.array([1.0, 1.0, 1.0, 1.0, SQRT2, SQRT2, SQRT2, SQRT2])
+    side_a = np.array([0, 0, 0, 0, -width, -width, width, width])
+    side_b = np.array([0, 0, 0, 0, -1, 1, -1, 1])
+    return offsets, steps, side_a, side_b
+
+
+@njit(cache=True)
+def _passable(free, node, neighbour, side_a, side_b):
+    """A step from node to neighbour stays on free pixels (a diagonal one, ``side_a`` nonzero, does
+    not cut between its two side pixels)."""
+    return free[neighbour] and (side_a == 0 or (free[node + side_a] and free[node + side_b]))
+
+
+@njit(cache=True)
+def _room(array, count):
+    """``array``, doubled in length when its ``count`` entries fill it."""
+    return np.concatenate((array, array)) if count == len(array) else array
+
+
+@njit(cache=True)
+def _heap_less(f, g, node, i, j):
+    """Entry i before entry j: by f, then by g (the larger cost so far), then by node."""
+    if f[i] != f[j]:
+        return f[i] < f[j]
+    if g[i] != g[j]:
+        return g[i] < g[j]
+    return node[i] < node[j]
+
+
+@njit(cache=True)
+def _heap_swap(f, g, node, i, j):
+    f[i], f[j] = f[j], f[i]
+    g[i], g[j] = g[j], g[i]
+    node[i], node[j] = node[j], node[i]
+
+
+@njit(cache=True)
+def _heap_push(f, g, node, size, key_f, key_g, key_node):
+    """Push an entry onto the heap of ``size`` entries (the arrays have room for it)."""
+    f[size], g[size], node[size] = key_f, key_g, key_node
+    child = size
+    while child > 0:
+        parent = (child - 1) // 2
+        if not _heap_less(f, g, node, child, parent):
+            break
+        _heap_swap(f, g, node, child, parent)
+        child = parent
+
+
+@njit(cache=True)
+def _heap_pop(f, g, node, size):
+    """Move the least entry to index ``size - 1`` and restore the heap on the first ``size - 1``."""
+    last = size - 1
+    _heap_swap(f, g, node, 0, last)
+    index = 0
+    while True:
+        least, left, right = index, 2 * index + 1, 2 * index + 2
+        if left < last and _heap_less(f, g, node, left, least):
+            least = left
+        if right < last and _heap_less(f, g, node, right, least):
+            least = right
+        if least == index:
+            return
+        _heap_swap(f, g, node, index, least)
+        index = least
+
+
+@njit(cache=True)
+def _astar(free, width, start_node, goal_node, best_cost, parent, closed):
+    """A* on the padded flat raster (octile heuristic; of equal f, the node with the larger cost so
+    far first, i.e. nearer the goal); the path's flat nodes, or None. Leaves the scratch clean."""
+    offsets, steps, side_a, side_b = _moves(width)
+    goal_row, goal_col = goal_node // width, goal_node % width
+    touched = np.empty(64, dtype=np.int64)
+    touched_count = 1
+    touched[0] = start_node
+    best_cost[start_node] = 0.0
+    parent[start_node] = start_node
+    f, g, heap_node = np.empty(64), np.empty(64), np.empty(64, dtype=np.int64)
+    _heap_push(f, g, heap_node, 0, 0.0, 0.0, start_node)
+    size, found = 1, False
+    while size > 0:
+        _heap_pop(f, g, heap_node, size)
+        size -= 1
+        node, cost = heap_node[size], -g[size]
+        if node == goal_node:
+            found = True
+            break
+        if closed[node]:
+            continue
+        closed[node] = True
+        for move in range(8):
+            neighbour = node + offsets[move]
+            if not _passable(free, node, neighbour, side_a[move], side_b[move]):
+                continue
+            new_cost = cost + steps[move]
+            if new_cost < best_cost[neighbour]:
+                if best_cost[neighbour] == np.inf:
+                    touched = _room(touched, touched_count)
+                    touched[touched_count] = neighbour
+                    touched_count += 1
+                best_cost[neighbour] = new_cost
+                parent[neighbour] = node
+                d_row, d_col = abs(neighbour // width - goal_row), abs(neighbour % width - goal_col)
+                octile = d_row + d_col + (SQRT2 - 2.0) * min(d_row, d_col)
+                f, g, heap_node = _room(f, size), _room(g, size), _room(heap_node, size)
+                _heap_push(f, g, heap_node, size, new_cost + octile, -new_cost, neighbour)
+                size += 1
+    path = None
+    if found:
+        length = 1
+        node = goal_node
+        while node != start_node:
+            node = parent[node]
+            length += 1
+        path = np.empty(length, dtype=np.int64)
+        node = goal_node
+        for index in range(length - 1, -1, -1):
+            path[index] = node
+            node = parent[node]
+    for index in range(touched_count):
+        best_cost[touched[index]] = np.inf
+        closed[touched[index]] = False
+    return path
+
+
+@njit(cache=True)
+def _bounded_distances(free, width, sources, limit, cost, settled, target):
+    """(len(sources), len(sources)) geodesic distances between the flat nodes ``sources`` (sorted,
+    distinct), each Dijkstra search stopped at ``limit`` (inf beyond, as scipy's ``limit``). Leaves
+    the scratch clean."""
+    offsets, steps, side_a, side_b = _moves(width)
+    count = len(sources)
+    distances = np.full((count, count), np.inf)
+    for index in range(count):
+        target[sources[index]] = index
+    touched = np.empty(64, dtype=np.int64)
+    f, g, heap_node = np.empty(64), np.empty(64), np.empty(64, dtype=np.int64)
+    for source in range(count):
+        touched_count, size = 1, 0
+        touched[0] = sources[source]
+        cost[sources[source]] = 0.0
+        _heap_push(f, g, heap_node, size, 0.0, 0.0, sources[source])
+        size += 1
+        while size > 0:
+            _heap_pop(f, g, heap_node, size)
+            size -= 1
+            node = heap_node[size]
+            if settled[node]:
+                continue
+            settled[node] = True
+            if target[node] >= 0:
+                distances[source, target[node]] = cost[node]
+            for move in range(8):
+                neighbour = node + offsets[move]
+                if settled[neighbour] or not _passable(free, node, neighbour, side_a[move], side_b[move]):
+                    continue
+                new_cost = cost[node] + steps[move]
+                if new_cost <= limit and new_cost < cost[neighbour]:
+                    if cost[neighbour] == np.inf:
+                        touched = _room(touched, touched_count)
+                        touched[touched_count] = neighbour
+                        touched_count += 1
+                    cost[neighbour] = new_cost
+                    f, g, heap_node = _room(f, size), _room(g, size), _room(heap_node, size)
+                    _heap_push(f, g, heap_node, size, new_cost, 0.0, neighbour)
+                    size += 1
+        for index in range(touched_count):
+            cost[touched[index]] = np.inf
+            settled[touched[index]] = False
+    for index in range(count):
+        target[sources[index]] = -1
+    return distances
 
 
 def astar(centre_free: np.ndarray, start: Sequence[int], goal: Sequence[int]) -> np.ndarray | None:

@@ -13,6 +13,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from cabinbench.geometry import polyline_length
 
@@ -51,10 +52,7 @@ def route(
     points = np.vstack((np.asarray(start)[None, :], entries.reshape(-1, 2)))
     distances = pairwise_distance(points)
     start_to = distances[0, 1:].reshape(unit_count, variant_count)
-    between = distances[1:, 1:].reshape(unit_count, variant_count, unit_count, variant_count)
-    # transit[a, v, b, w]: from the exit of unit a swept by variant v to the entry of b by w.
-    transit = between[:, np.arange(variant_count) ^ 1]
-    costs = RouteCosts(start_to, transit, in_unit_length)
+    costs = RouteCosts(start_to, *_transit_tables(distances, variant_count), in_unit_length)
 
     groups = [
         [index for index in range(unit_count) if index not in last_units],
@@ -78,7 +76,8 @@ class RouteCosts:
     """The cost tables of a route (see ``route``); steps are (unit, variant) tuples."""
 
     start_to: np.ndarray  # [unit, variant]: from the start to the entry
-    transit: np.ndarray  # [unit, variant, unit, variant]: from an exit to an entry
+    transit: np.ndarray  # [a, v, b, w]: from the exit of unit a swept by variant v to the entry of b by w
+    arrive: np.ndarray  # [b, w, a, v]: transit[a, v, b, w], by rows of the arriving step
     in_unit: np.ndarray  # [unit, variant]: the sweep itself
 
     def link(self, a: tuple[int, int] | None, b: tuple[int, int] | None) -> float:
@@ -110,25 +109,9 @@ def _greedy(groups, costs: RouteCosts) -> list[tuple[int, int]]:
 
 def _two_opt(tour, group_end, costs: RouteCosts) -> list[tuple[int, int]]:
     """2-opt on the open route with a fixed start; stretches never cross the group boundary."""
-    tour = list(tour)
-
-    improved = True
-    while improved:
-        improved = False
-        for group_start, group_stop in ((0, group_end), (group_end, len(tour))):
-            for i in range(group_start, group_stop):
-                for j in range(i, group_stop):
-                    first, last = tour[i], tour[j]
-                    reversed_first = (first[0], first[1] ^ 1)
-                    reversed_last = (last[0], last[1] ^ 1)
-                    before = tour[i - 1] if i > 0 else None
-                    after = tour[j + 1] if j + 1 < len(tour) else None
-                    old = costs.link(before, first) + costs.link(last, after)
-                    new = costs.link(before, reversed_last) + costs.link(reversed_first, after)
-                    if new < old - 1e-9:
-                        tour[i : j + 1] = [(cell, variant ^ 1) for cell, variant in reversed(tour[i : j + 1])]
-                        improved = True
-    return tour
+    units, variants = _arrays(tour)
+    _two_opt_compiled(units, variants, group_end, costs.start_to, costs.transit)
+    return list(zip(units.tolist(), variants.tolist()))
 
 
 def _or_opt(tour, group_end, costs: RouteCosts, max_segment: int = 3) -> list[tuple[int, int]]:
@@ -137,59 +120,167 @@ def _or_opt(tour, group_end, costs: RouteCosts, max_segment: int = 3) -> list[tu
     This is the move that nests routes: a side pocket left for later is fitted in between two
     pieces of the corridor it branches off. Stretches stay within their group.
     """
-    tour = list(tour)
+    units, variants = _arrays(tour)
+    _or_opt_compiled(units, variants, group_end, costs.start_to, costs.transit, costs.arrive, max_segment)
+    return list(zip(units.tolist(), variants.tolist()))
+
+
+def _arrays(tour) -> tuple[np.ndarray, np.ndarray]:
+    units, variants = zip(*tour)
+    return np.array(units, dtype=np.int64), np.array(variants, dtype=np.int64)
+
+
+# The moves run compiled (numba): a building's route has a thousand units, and each pass of 2-opt
+# and Or-opt looks at every pair of them. The costs are read along rows (from one step to every
+# other, or to one step from every other through ``arrive``) and the route's own links are kept in
+# a table, so that a pass reads memory in order: the tables of a building hold hundreds of MB.
+# A step is (unit, variant); unit -1 stands for the start (before the first step) or the end of
+# the route (after the last), where the transit is free.
+@njit(cache=True)
+def _transit_tables(distances, variant_count):
+    """``transit`` and ``arrive`` (see ``RouteCosts``) from the distances between the start and the
+    units' entries, copied a tile at a time (a building's tables are hundreds of MB)."""
+    count = (distances.shape[0] - 1) // variant_count
+    transit = np.empty((count, variant_count, count, variant_count))
+    arrive = np.empty((count, variant_count, count, variant_count))
+    tile = 16
+    for a_tile in range(0, count, tile):
+        for b_tile in range(0, count, tile):
+            for a in range(a_tile, min(a_tile + tile, count)):
+                for v in range(variant_count):
+                    # the exit of a by v is the entry of a by v ^ 1
+                    row = distances[1 + a * variant_count + (v ^ 1)]
+                    for b in range(b_tile, min(b_tile + tile, count)):
+                        for w in range(variant_count):
+                            transit[a, v, b, w] = arrive[b, w, a, v] = row[1 + b * variant_count + w]
+    return transit, arrive
+
+
+@njit(cache=True)
+def _link(start_to, transit, unit_a, variant_a, unit_b, variant_b):
+    """Transit from step a (unit -1: the start) to step b (unit -1: the end of the route, free)."""
+    if unit_b < 0:
+        return 0.0
+    if unit_a < 0:
+        return start_to[unit_b, variant_b]
+    return transit[unit_a, variant_a, unit_b, variant_b]
+
+
+@njit(cache=True)
+def _route_links(units, variants, start_to, transit):
+    """links[k]: the transit into step k of the route from the step before it (k = 0: from the
+    start; k = len: to the end, free)."""
+    count = len(units)
+    links = np.zeros(count + 1)
+    for k in range(count):
+        links[k] = _link(
+            start_to, transit, units[k - 1] if k > 0 else -1, variants[k - 1], units[k], variants[k]
+        )
+    return links
+
+
+@njit(cache=True)
+def _two_opt_compiled(units, variants, group_end, start_to, transit):
+    """2-opt in place: reversing stretch i..j reverses each of its units (variant ^ 1); first
+    improvement, scanning i then j, until a whole pass gains nothing."""
+    count = len(units)
+    links = _route_links(units, variants, start_to, transit)
+    improved = True
+    while improved:
+        improved = False
+        for group_start, group_stop in ((0, group_end), (group_end, count)):
+            for i in range(group_start, group_stop):
+                for j in range(i, group_stop):
+                    before_unit = units[i - 1] if i > 0 else -1
+                    before_variant = variants[i - 1] if i > 0 else 0
+                    after_unit = units[j + 1] if j + 1 < count else -1
+                    after_variant = variants[j + 1] if j + 1 < count else 0
+                    old = links[i] + links[j + 1]
+                    new = _link(start_to, transit, before_unit, before_variant, units[j], variants[j] ^ 1)
+                    new += _link(start_to, transit, units[i], variants[i] ^ 1, after_unit, after_variant)
+                    if new < old - 1e-9:
+                        units[i : j + 1] = units[i : j + 1][::-1].copy()
+                        variants[i : j + 1] = variants[i : j + 1][::-1] ^ 1
+                        links = _route_links(units, variants, start_to, transit)
+                        improved = True
+
+
+@njit(cache=True)
+def _or_opt_compiled(units, variants, group_end, start_to, transit, arrive, max_segment):
+    """Or-opt in place: for each stretch length and position, the best gap (first of equal gains)
+    and way round to move the stretch to, moved there when it gains; until a pass gains nothing."""
+    count = len(units)
+    links = _route_links(units, variants, start_to, transit)
     improved = True
     while improved:
         improved = False
         for length in range(1, max_segment + 1):
             i = 0
-            while i + length <= len(tour):
+            while i + length <= count:
                 in_first_group = i < group_end
                 if in_first_group and i + length > group_end:
                     i += 1
                     continue
-                move = _best_insertion(tour, i, length, group_end, in_first_group, costs)
-                if move is not None:
-                    gap, stretch = move
-                    rest = tour[:i] + tour[i + length :]
-                    tour = rest[:gap] + stretch + rest[gap:]
+                gap, reverse = _best_insertion(
+                    units, variants, links, i, length, group_end, start_to, transit, arrive
+                )
+                if gap >= 0:
+                    stretch_units, stretch_variants = (
+                        units[i : i + length].copy(),
+                        variants[i : i + length].copy(),
+                    )
+                    if reverse:
+                        stretch_units, stretch_variants = (
+                            stretch_units[::-1].copy(),
+                            stretch_variants[::-1] ^ 1,
+                        )
+                    rest_units = np.concatenate((units[:i], units[i + length :]))
+                    rest_variants = np.concatenate((variants[:i], variants[i + length :]))
+                    units[:] = np.concatenate((rest_units[:gap], stretch_units, rest_units[gap:]))
+                    variants[:] = np.concatenate((rest_variants[:gap], stretch_variants, rest_variants[gap:]))
+                    links = _route_links(units, variants, start_to, transit)
                     improved = True
                 i += 1
-    return tour
 
 
-def _best_insertion(tour, i, length, group_end, in_first_group, costs: RouteCosts):
-    """The best (gap, stretch) to move tour[i : i + length] to, or None if no move gains."""
-    stretch = tour[i : i + length]
-    rest = tour[:i] + tour[i + length :]
-    before = tour[i - 1] if i > 0 else None
-    after = tour[i + length] if i + length < len(tour) else None
-    removal = costs.link(before, stretch[0]) + costs.link(stretch[-1], after) - costs.link(before, after)
-    rest_end = group_end - length if in_first_group else group_end
-    gaps = np.arange(0, rest_end + 1) if in_first_group else np.arange(rest_end, len(rest) + 1)
-    # Gap g lies between rest[g - 1] (or the start) and rest[g] (or the end of the route).
-    cells = np.array([cell for cell, _ in rest] + [0], dtype=int)
-    variants = np.array([variant for _, variant in rest] + [0], dtype=int)
-    has_previous, has_next = gaps > 0, gaps < len(rest)
-    previous, following = np.maximum(gaps - 1, 0), gaps
-    p_cell, p_variant = cells[previous], variants[previous]
-    f_cell, f_variant = cells[following], variants[following]
-
-    def links_into(cell, variant):  # from the unit before each gap (or the start) to (cell, variant)
-        from_start = costs.start_to[cell, variant]
-        return np.where(has_previous, costs.transit[p_cell, p_variant, cell, variant], from_start)
-
-    def links_out_of(cell, variant):  # from (cell, variant) to the unit after each gap (if any)
-        return np.where(has_next, costs.transit[cell, variant, f_cell, f_variant], 0.0)
-
-    replaced = np.where(has_next, links_into(f_cell, f_variant), 0.0)
-    best_gain, best = 1e-9, None
-    for candidate in (stretch, [(cell, variant ^ 1) for cell, variant in reversed(stretch)]):
-        gain = removal - (links_into(*candidate[0]) + links_out_of(*candidate[-1]) - replaced)
-        k = int(np.argmax(gain))
-        if gain[k] > best_gain:
-            best_gain, best = gain[k], (int(gaps[k]), candidate)
-    return best
+@njit(cache=True)
+def _best_insertion(units, variants, links, i, length, group_end, start_to, transit, arrive):
+    """The best (gap, reversed) to move stretch i .. i + length - 1 to, or (-1, False) if no move
+    gains. Gap g lies between rest[g - 1] (or the start) and rest[g] (or the end of the route),
+    where rest is the route without the stretch."""
+    count = len(units)
+    last = i + length - 1
+    before_unit = units[i - 1] if i > 0 else -1
+    before_variant = variants[i - 1] if i > 0 else 0
+    after_unit = units[last + 1] if last + 1 < count else -1
+    after_variant = variants[last + 1] if last + 1 < count else 0
+    closing = _link(start_to, transit, before_unit, before_variant, after_unit, after_variant)
+    removal = links[i] + links[last + 1] - closing
+    rest_count = count - length
+    first_gap, last_gap = (0, group_end - length) if i < group_end else (group_end, rest_count)
+    best_gain, best_gap, best_reverse = 1e-9, -1, False
+    for reverse in (False, True):
+        # the stretch's first and last steps, either way round
+        head_unit, head_variant = (units[last], variants[last] ^ 1) if reverse else (units[i], variants[i])
+        tail_unit, tail_variant = (units[i], variants[i] ^ 1) if reverse else (units[last], variants[last])
+        into_head, out_of_tail = arrive[head_unit, head_variant], transit[tail_unit, tail_variant]
+        gain_here, gap_here = -np.inf, -1
+        for gap in range(first_gap, last_gap + 1):
+            previous = gap - 1 if gap - 1 < i else gap - 1 + length  # rest[gap - 1] in the route
+            following = gap if gap < i else gap + length  # rest[gap]
+            into = (
+                start_to[head_unit, head_variant]
+                if gap == 0
+                else into_head[units[previous], variants[previous]]
+            )
+            out = out_of_tail[units[following], variants[following]] if gap < rest_count else 0.0
+            replaced = closing if gap == i else links[following] if gap < rest_count else 0.0
+            gain = removal - (into + out - replaced)
+            if gain > gain_here:
+                gain_here, gap_here = gain, gap
+        if gain_here > best_gain:
+            best_gain, best_gap, best_reverse = gain_here, gap_here, reverse
+    return best_gap, best_reverse
 
 
 def _best_variants(order, costs: RouteCosts) -> list[tuple[int, int]]:
