@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pytest
 from scipy import ndimage
+from scipy.sparse.csgraph import dijkstra
 
 from cabinbench.baselines.coverage_planning import (
     MIN_PLAN_COVERAGE,
@@ -410,6 +411,23 @@ def test_astar_is_optimal_and_stays_free():
     simplified = FreeSpace(free).transit(start, goal)
     assert len(simplified) <= 4
     assert all(segment_is_free(free, a, b) for a, b in zip(simplified[:-1], simplified[1:]))
+
+
+@pytest.mark.parametrize("radius", [math.inf, 12.0])
+def test_geodesic_distances_equal_scipy_dijkstra_on_the_same_graph(radius):
+    """The compiled searches (stopped at the routing radius) give scipy's distances to the bit, so
+    routes do not depend on which computes them."""
+    rng = np.random.default_rng(0)
+    free = ndimage.binary_opening(rng.random((40, 50)) > 0.25)  # rooms of free pixels and specks
+    space = FreeSpace(free, search_radius_px=radius)
+    pixels = np.argwhere(free)[rng.choice(int(free.sum()), 60, replace=False)]
+    pixels = np.vstack([pixels, pixels[:3]])  # a pixel given twice
+    nodes = space.node_id[pixels[:, 0], pixels[:, 1]]
+    reference = dijkstra(space.graph, directed=False, indices=nodes, limit=radius)[:, nodes]
+    straight = np.sqrt(((pixels[:, None, :] - pixels[None, :, :]) ** 2).sum(axis=2))
+    expected = np.where(np.isfinite(reference), reference, radius + straight)
+    assert np.array_equal(space.pairwise_distances(pixels), expected)
+    assert not np.isfinite(reference).all()  # some pairs out of reach (or in separate rooms)
 
 
 def test_segment_check_rejects_corner_cutting():
