@@ -5,7 +5,13 @@ real env (``CoverageEnv``: pymunk physics, 0.1 s steps, 0.5 m/s, 2 rad/s) on sma
 written here. Planning time is measured by ``python -m cabinbench.bench``, never by a test.
 """
 
+import fcntl
 import math
+import os
+import select
+import struct
+import sys
+import termios
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,6 +36,7 @@ from cabinbench.baselines.coverage_planning import (
     segment_is_free,
     transpose_cell,
 )
+from cabinbench.baselines.coverage_planning import plan as plan_module
 from cabinbench.baselines.path_following import PathFollower
 from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.geometry import offsets_from_segments, world_to_pixel
@@ -494,6 +501,34 @@ def test_both_sweep_axes_give_complete_plans(sweep_axis):
     covered = stamp_discs(free.shape, sample_polyline(plan.waypoints)) & reachable
     assert covered.sum() / reachable.sum() >= 0.98
     assert sorted(plan.cell_order) == list(range(len(plan.cells)))
+
+
+def plan_the_cabin_with_stderr_to(stream, monkeypatch):
+    """Plan the cabin scene, writing stderr to ``stream``, with the progress bar due at once (it
+    waits ``PROGRESS_DELAY_S`` otherwise: a cabin's plan is over before)."""
+    monkeypatch.setattr(plan_module, "PROGRESS_DELAY_S", 0.0)
+    monkeypatch.setattr(sys, "stderr", stream)
+    scene = SCENES["cabin"]
+    plan_coverage(erode_by_radius(scene.free()), RESOLUTION, ORIGIN, TOOL_WIDTH, scene.start)
+    stream.flush()
+
+
+def test_a_long_plan_shows_its_stages_on_a_terminal(monkeypatch):
+    master, slave = os.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 120, 0, 0))  # 120 columns wide
+    with open(slave, "w") as terminal:
+        plan_the_cabin_with_stderr_to(terminal, monkeypatch)
+        shown = b""
+        while select.select([master], [], [], 0)[0]:
+            shown += os.read(master, 4096)
+    os.close(master)
+    assert "coverage plan" in shown.decode() and "axis 1: join" in shown.decode()
+
+
+def test_a_plan_piped_or_written_to_a_file_shows_no_bar(monkeypatch, tmp_path):
+    with open(tmp_path / "stderr.txt", "w") as log:
+        plan_the_cabin_with_stderr_to(log, monkeypatch)
+    assert (tmp_path / "stderr.txt").read_text() == ""
 
 
 def test_last_cells_are_swept_last():

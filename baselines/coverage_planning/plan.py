@@ -8,11 +8,13 @@ none does.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import ndimage
+from tqdm import tqdm
 
 from cabinbench.geometry import drop_repeated_points, pixels_to_world, polyline_length, world_to_pixel
 
@@ -26,6 +28,10 @@ from .units import DEFAULT_SWEEP_OPTIONS, SweepOptions, cell_units
 # Plans should cover at least this fraction of the coverable area: the benchmark's success
 # threshold (0.98) plus a margin for tracking errors and for what the protocol leaves out.
 MIN_PLAN_COVERAGE = 0.985
+# A plan that takes longer than this (a building's: a minute) shows a progress bar on a terminal,
+# one step per stage of each candidate plan; a cabin's plan is done before the bar would appear.
+PROGRESS_DELAY_S = 2.0
+STAGES = ("decompose", "sweep", "route", "join")
 
 
 @dataclass
@@ -91,37 +97,56 @@ def plan_coverage(
     no_blocks = replace(options, lane_blocks=False)
     attempts = list(dict.fromkeys([options, no_blocks, replace(no_blocks, lane_direction="fewest_lanes")]))
     plans = []
-    for attempt in attempts:
-        for axis in axes:
-            cells, cell_order, pixel_path = _plan_for_axis(
-                free_space, axis, resolution, tool_width, start_pixel, last_cells, attempt
-            )
-            waypoints = np.vstack(
-                (np.asarray(start, dtype=float)[None, :], pixels_to_world(pixel_path, resolution, origin))
-            )
-            # The start point may itself be the centre of its pixel.
-            waypoints = drop_repeated_points(waypoints)
-            length = polyline_length(waypoints)
-            duration = driving_time(waypoints, max_speed, max_turn_rate)
-            coverage = path_coverage(pixel_path, coverable, radius_px)
-            plans.append(Plan(waypoints, cells, axis, length, duration, cell_order, coverage))
-        if any(plan.coverage >= min_coverage for plan in plans):
-            break
+    bar = tqdm(
+        total=len(axes) * len(STAGES),
+        desc="coverage plan",
+        unit="stage",
+        file=sys.stderr,
+        leave=False,
+        delay=PROGRESS_DELAY_S,
+        disable=None,  # only on a terminal
+    )
+    with bar as progress:
+        for attempt in attempts:
+            progress.total = len(plans) * len(STAGES) + len(axes) * len(STAGES)  # a fallback adds its stages
+            for axis in axes:
+                cells, cell_order, pixel_path = _plan_for_axis(
+                    free_space, axis, resolution, tool_width, start_pixel, last_cells, attempt, progress
+                )
+                waypoints = np.vstack(
+                    (np.asarray(start, dtype=float)[None, :], pixels_to_world(pixel_path, resolution, origin))
+                )
+                # The start point may itself be the centre of its pixel.
+                waypoints = drop_repeated_points(waypoints)
+                length = polyline_length(waypoints)
+                duration = driving_time(waypoints, max_speed, max_turn_rate)
+                coverage = path_coverage(pixel_path, coverable, radius_px)
+                plans.append(Plan(waypoints, cells, axis, length, duration, cell_order, coverage))
+            if any(plan.coverage >= min_coverage for plan in plans):
+                break
     enough = [plan for plan in plans if plan.coverage >= min_coverage]
     if enough:
         return min(enough, key=lambda plan: plan.length)
     return max(plans, key=lambda plan: plan.coverage)
 
 
-def _plan_for_axis(free_space, sweep_axis, resolution, tool_width, start_pixel, last_cells, options):
-    """Decompose, sweep, route and join for one axis: the cells, the cell order, the pixel path."""
+def _plan_for_axis(
+    free_space, sweep_axis, resolution, tool_width, start_pixel, last_cells, options, progress
+):
+    """Decompose, sweep, route and join for one axis (each of the ``STAGES`` a step of
+    ``progress``): the cells, the cell order, the pixel path."""
     max_jump = max_lane_spacing_px(tool_width, resolution) // 2
+    _show_stage(progress, f"axis {sweep_axis}: {STAGES[0]}")
     cells = decompose(free_space.free, sweep_axis, max_jump=max_jump)
+    progress.update()
+    _show_stage(progress, f"axis {sweep_axis}: {STAGES[1]} {len(cells)} cells")
     units = [
         unit
         for index, cell in enumerate(cells)
         for unit in cell_units(cell, index, free_space.free, tool_width, resolution, max_jump, options)
     ]
+    progress.update()
+    _show_stage(progress, f"axis {sweep_axis}: {STAGES[2]} {len(units)} units")
     variant_count = max(len(unit.variants) for unit in units)
     # Pairs (k, k ^ 1) repeat, so padding every unit to the same variant count keeps the pairing.
     variants = [[unit.variants[k % len(unit.variants)] for k in range(variant_count)] for unit in units]
@@ -129,12 +154,21 @@ def _plan_for_axis(free_space, sweep_axis, resolution, tool_width, start_pixel, 
         k for k, unit in enumerate(units) if last_cells is not None and last_cells(cells[unit.cell])
     }
     tour = route(variants, start_pixel, free_space.pairwise_distances, chosen_last)
+    progress.update()
+    _show_stage(progress, f"axis {sweep_axis}: {STAGES[3]}")
     path = join(free_space, start_pixel, [variants[unit][variant] for unit, variant in tour])
     path = drop_idle_corners(
         path, free_space.free, tool_width / 2 / resolution, SHORTCUT_MARGIN_M / resolution
     )
+    progress.update()
     cell_order = list(dict.fromkeys(units[unit].cell for unit, _ in tour))
     return cells, cell_order, path
+
+
+def _show_stage(progress: tqdm, text: str) -> None:
+    """Name the stage under way on the bar, shown only once the bar is (after ``PROGRESS_DELAY_S``)."""
+    progress.set_postfix_str(text, refresh=False)
+    progress.update(0)
 
 
 def _nearest_free_pixel(centre_free: np.ndarray, pixel: tuple[int, int]) -> tuple[int, int]:
