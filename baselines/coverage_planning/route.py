@@ -86,6 +86,16 @@ class RouteCosts:
             return 0.0
         return self.start_to[b] if a is None else self.transit[a + b]
 
+    @property
+    def variant_count(self) -> int:
+        return self.start_to.shape[1]
+
+    def rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The tables by step index (unit * variants + variant): from the start, and transit and
+        arrive as (steps, steps) matrices (views)."""
+        steps = self.start_to.size
+        return self.start_to.ravel(), self.transit.reshape(steps, steps), self.arrive.reshape(steps, steps)
+
     def tour(self, tour: list[tuple[int, int]]) -> float:
         steps = [None, *tour, None]
         transits = sum(self.link(a, b) for a, b in zip(steps[:-1], steps[1:]))
@@ -109,9 +119,9 @@ def _greedy(groups, costs: RouteCosts) -> list[tuple[int, int]]:
 
 def _two_opt(tour, group_end, costs: RouteCosts) -> list[tuple[int, int]]:
     """2-opt on the open route with a fixed start; stretches never cross the group boundary."""
-    units, variants = _arrays(tour)
-    _two_opt_compiled(units, variants, group_end, costs.start_to, costs.transit)
-    return list(zip(units.tolist(), variants.tolist()))
+    steps = _steps(tour, costs)
+    _two_opt_compiled(steps, group_end, *costs.rows())
+    return _tour(steps, costs)
 
 
 def _or_opt(tour, group_end, costs: RouteCosts, max_segment: int = 3) -> list[tuple[int, int]]:
@@ -120,22 +130,26 @@ def _or_opt(tour, group_end, costs: RouteCosts, max_segment: int = 3) -> list[tu
     This is the move that nests routes: a side pocket left for later is fitted in between two
     pieces of the corridor it branches off. Stretches stay within their group.
     """
-    units, variants = _arrays(tour)
-    _or_opt_compiled(units, variants, group_end, costs.start_to, costs.transit, costs.arrive, max_segment)
-    return list(zip(units.tolist(), variants.tolist()))
-
-
-def _arrays(tour) -> tuple[np.ndarray, np.ndarray]:
-    units, variants = zip(*tour)
-    return np.array(units, dtype=np.int64), np.array(variants, dtype=np.int64)
+    steps = _steps(tour, costs)
+    _or_opt_compiled(steps, group_end, *costs.rows(), max_segment)
+    return _tour(steps, costs)
 
 
 # The moves run compiled (numba): a building's route has a thousand units, and each pass of 2-opt
-# and Or-opt looks at every pair of them. The costs are read along rows (from one step to every
-# other, or to one step from every other through ``arrive``) and the route's own links are kept in
-# a table, so that a pass reads memory in order: the tables of a building hold hundreds of MB.
-# A step is (unit, variant); unit -1 stands for the start (before the first step) or the end of
-# the route (after the last), where the transit is free.
+# and Or-opt looks at every pair of them. There a step (unit, variant) is one index,
+# unit * variants + variant (its reversal is index ^ 1), into the rows of the cost tables: from one
+# step to every other (``transit``) and into one step from every other (``arrive``). The route's
+# own links are kept in a table, so that a pass reads memory in order (a building's tables hold
+# hundreds of MB). Step -1 stands for the start (before the first step) or the end of the route
+# (after the last), where the transit is free.
+def _steps(tour, costs: RouteCosts) -> np.ndarray:
+    return np.array([unit * costs.variant_count + variant for unit, variant in tour], dtype=np.int64)
+
+
+def _tour(steps: np.ndarray, costs: RouteCosts) -> list[tuple[int, int]]:
+    return [divmod(step, costs.variant_count) for step in steps.tolist()]
+
+
 @njit(cache=True)
 def _transit_tables(distances, variant_count):
     """``transit`` and ``arrive`` (see ``RouteCosts``) from the distances between the start and the
@@ -157,60 +171,56 @@ def _transit_tables(distances, variant_count):
 
 
 @njit(cache=True)
-def _link(start_to, transit, unit_a, variant_a, unit_b, variant_b):
-    """Transit from step a (unit -1: the start) to step b (unit -1: the end of the route, free)."""
-    if unit_b < 0:
+def _link(start, transit, a, b):
+    """Transit from step a (-1: the start) to step b (-1: the end of the route, free)."""
+    if b < 0:
         return 0.0
-    if unit_a < 0:
-        return start_to[unit_b, variant_b]
-    return transit[unit_a, variant_a, unit_b, variant_b]
+    if a < 0:
+        return start[b]
+    return transit[a, b]
 
 
 @njit(cache=True)
-def _route_links(units, variants, start_to, transit):
+def _route_links(steps, start, transit):
     """links[k]: the transit into step k of the route from the step before it (k = 0: from the
     start; k = len: to the end, free)."""
-    count = len(units)
+    count = len(steps)
     links = np.zeros(count + 1)
     for k in range(count):
-        links[k] = _link(
-            start_to, transit, units[k - 1] if k > 0 else -1, variants[k - 1], units[k], variants[k]
-        )
+        links[k] = _link(start, transit, steps[k - 1] if k > 0 else -1, steps[k])
     return links
 
 
 @njit(cache=True)
-def _two_opt_compiled(units, variants, group_end, start_to, transit):
-    """2-opt in place: reversing stretch i..j reverses each of its units (variant ^ 1); first
+def _two_opt_compiled(steps, group_end, start, transit, arrive):
+    """2-opt in place: reversing stretch i..j reverses each of its steps (index ^ 1); first
     improvement, scanning i then j, until a whole pass gains nothing."""
-    count = len(units)
-    links = _route_links(units, variants, start_to, transit)
+    count = len(steps)
+    links = _route_links(steps, start, transit)
     improved = True
     while improved:
         improved = False
         for group_start, group_stop in ((0, group_end), (group_end, count)):
             for i in range(group_start, group_stop):
+                before = steps[i - 1] if i > 0 else -1
                 for j in range(i, group_stop):
-                    before_unit = units[i - 1] if i > 0 else -1
-                    before_variant = variants[i - 1] if i > 0 else 0
-                    after_unit = units[j + 1] if j + 1 < count else -1
-                    after_variant = variants[j + 1] if j + 1 < count else 0
+                    after = steps[j + 1] if j + 1 < count else -1
                     old = links[i] + links[j + 1]
-                    new = _link(start_to, transit, before_unit, before_variant, units[j], variants[j] ^ 1)
-                    new += _link(start_to, transit, units[i], variants[i] ^ 1, after_unit, after_variant)
+                    new = _link(start, transit, before, steps[j] ^ 1) + _link(
+                        start, transit, steps[i] ^ 1, after
+                    )
                     if new < old - 1e-9:
-                        units[i : j + 1] = units[i : j + 1][::-1].copy()
-                        variants[i : j + 1] = variants[i : j + 1][::-1] ^ 1
-                        links = _route_links(units, variants, start_to, transit)
+                        steps[i : j + 1] = steps[i : j + 1][::-1] ^ 1
+                        links = _route_links(steps, start, transit)
                         improved = True
 
 
 @njit(cache=True)
-def _or_opt_compiled(units, variants, group_end, start_to, transit, arrive, max_segment):
+def _or_opt_compiled(steps, group_end, start, transit, arrive, max_segment):
     """Or-opt in place: for each stretch length and position, the best gap (first of equal gains)
     and way round to move the stretch to, moved there when it gains; until a pass gains nothing."""
-    count = len(units)
-    links = _route_links(units, variants, start_to, transit)
+    count = len(steps)
+    links = _route_links(steps, start, transit)
     improved = True
     while improved:
         improved = False
@@ -221,59 +231,41 @@ def _or_opt_compiled(units, variants, group_end, start_to, transit, arrive, max_
                 if in_first_group and i + length > group_end:
                     i += 1
                     continue
-                gap, reverse = _best_insertion(
-                    units, variants, links, i, length, group_end, start_to, transit, arrive
-                )
+                gap, reverse = _best_insertion(steps, links, i, length, group_end, start, transit, arrive)
                 if gap >= 0:
-                    stretch_units, stretch_variants = (
-                        units[i : i + length].copy(),
-                        variants[i : i + length].copy(),
-                    )
-                    if reverse:
-                        stretch_units, stretch_variants = (
-                            stretch_units[::-1].copy(),
-                            stretch_variants[::-1] ^ 1,
-                        )
-                    rest_units = np.concatenate((units[:i], units[i + length :]))
-                    rest_variants = np.concatenate((variants[:i], variants[i + length :]))
-                    units[:] = np.concatenate((rest_units[:gap], stretch_units, rest_units[gap:]))
-                    variants[:] = np.concatenate((rest_variants[:gap], stretch_variants, rest_variants[gap:]))
-                    links = _route_links(units, variants, start_to, transit)
+                    stretch = steps[i : i + length][::-1] ^ 1 if reverse else steps[i : i + length].copy()
+                    rest = np.concatenate((steps[:i], steps[i + length :]))
+                    steps[:] = np.concatenate((rest[:gap], stretch, rest[gap:]))
+                    links = _route_links(steps, start, transit)
                     improved = True
                 i += 1
 
 
 @njit(cache=True)
-def _best_insertion(units, variants, links, i, length, group_end, start_to, transit, arrive):
+def _best_insertion(steps, links, i, length, group_end, start, transit, arrive):
     """The best (gap, reversed) to move stretch i .. i + length - 1 to, or (-1, False) if no move
     gains. Gap g lies between rest[g - 1] (or the start) and rest[g] (or the end of the route),
     where rest is the route without the stretch."""
-    count = len(units)
+    count = len(steps)
     last = i + length - 1
-    before_unit = units[i - 1] if i > 0 else -1
-    before_variant = variants[i - 1] if i > 0 else 0
-    after_unit = units[last + 1] if last + 1 < count else -1
-    after_variant = variants[last + 1] if last + 1 < count else 0
-    closing = _link(start_to, transit, before_unit, before_variant, after_unit, after_variant)
+    closing = _link(
+        start, transit, steps[i - 1] if i > 0 else -1, steps[last + 1] if last + 1 < count else -1
+    )
     removal = links[i] + links[last + 1] - closing
     rest_count = count - length
     first_gap, last_gap = (0, group_end - length) if i < group_end else (group_end, rest_count)
     best_gain, best_gap, best_reverse = 1e-9, -1, False
     for reverse in (False, True):
         # the stretch's first and last steps, either way round
-        head_unit, head_variant = (units[last], variants[last] ^ 1) if reverse else (units[i], variants[i])
-        tail_unit, tail_variant = (units[i], variants[i] ^ 1) if reverse else (units[last], variants[last])
-        into_head, out_of_tail = arrive[head_unit, head_variant], transit[tail_unit, tail_variant]
+        head = steps[last] ^ 1 if reverse else steps[i]
+        tail = steps[i] ^ 1 if reverse else steps[last]
+        into_head, out_of_tail = arrive[head], transit[tail]
         gain_here, gap_here = -np.inf, -1
         for gap in range(first_gap, last_gap + 1):
             previous = gap - 1 if gap - 1 < i else gap - 1 + length  # rest[gap - 1] in the route
             following = gap if gap < i else gap + length  # rest[gap]
-            into = (
-                start_to[head_unit, head_variant]
-                if gap == 0
-                else into_head[units[previous], variants[previous]]
-            )
-            out = out_of_tail[units[following], variants[following]] if gap < rest_count else 0.0
+            into = start[head] if gap == 0 else into_head[steps[previous]]
+            out = out_of_tail[steps[following]] if gap < rest_count else 0.0
             replaced = closing if gap == i else links[following] if gap < rest_count else 0.0
             gain = removal - (into + out - replaced)
             if gain > gain_here:
