@@ -31,18 +31,31 @@ def segment_is_free(free: np.ndarray, start: Sequence[float], end: Sequence[floa
     the pixels at that corner (so it never cuts a corner, like A*).
     """
     start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
-    low = np.floor(np.minimum(start, end) + 0.5).astype(int)
-    high = np.floor(np.maximum(start, end) + 0.5).astype(int)
-    if low.min() < 0 or high[0] >= free.shape[0] or high[1] >= free.shape[1]:
+    return _segment_is_free(free, start[0], start[1], end[0], end[1])
+
+
+@njit(cache=True)
+def _segment_is_free(free, start_row, start_col, end_row, end_col):
+    """``segment_is_free`` compiled (the planner checks tens of thousands of segments on a building)."""
+    low_row, low_col = (
+        int(np.floor(min(start_row, end_row) + 0.5)),
+        int(np.floor(min(start_col, end_col) + 0.5)),
+    )
+    high_row, high_col = (
+        int(np.floor(max(start_row, end_row) + 0.5)),
+        int(np.floor(max(start_col, end_col) + 0.5)),
+    )
+    if min(low_row, low_col) < 0 or high_row >= free.shape[0] or high_col >= free.shape[1]:
         return False
-    window = free[low[0] : high[0] + 1, low[1] : high[1] + 1]
-    if window.all():
-        return True
-    delta = end - start
-    rows, cols = np.nonzero(~window)
-    offset = (rows + low[0] - start[0]) * delta[1] - (cols + low[1] - start[1]) * delta[0]
-    reach = 0.5 * (abs(delta[0]) + abs(delta[1]))
-    return not bool(np.any(np.abs(offset) <= reach + 1e-9))
+    delta_row, delta_col = end_row - start_row, end_col - start_col
+    reach = 0.5 * (abs(delta_row) + abs(delta_col))
+    for row in range(low_row, high_row + 1):
+        for col in range(low_col, high_col + 1):
+            if not free[row, col]:
+                offset = (row - start_row) * delta_col - (col - start_col) * delta_row
+                if abs(offset) <= reach + 1e-9:
+                    return False
+    return True
 
 
 class FreeSpace:
