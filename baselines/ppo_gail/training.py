@@ -11,7 +11,10 @@ which ``full_cabin`` evaluates zero-shot.
 Read top to bottom:
 
 1. ``TrainConfig``: every setting of a run, with its default and why (``study.study_config`` gives the
-   study's own configuration instead: two networks trained apart, ``ppo_gail_study``).
+   study's own configuration instead: two networks trained apart, ``ppo_gail_study``; ``team_training``'s
+   ``TeamTrainConfig`` a policy shared by a team, ``ppo_gail_team``, through the same functions: the
+   config's ``make_env``, ``obs_groups``, ``initialise``, ``policy_name`` and ``episode_options`` are what
+   differs).
 2. ``train(config, run_dir)``: records expert demonstrations with the boustrophedon planner (or reuses
    given ``.npz`` files), builds ``RslRlVecEnv(BatchedCoverageEnv(...))`` and rsl-rl's ``OnPolicyRunner``
    with the ``PPOCuriosityGail`` algorithm, then runs ``runner.learn(1)`` once per iteration under a tqdm
