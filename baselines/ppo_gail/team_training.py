@@ -38,7 +38,8 @@ TEAM_POLICY = "ppo_gail_team"
 
 @dataclass
 class TeamTrainConfig(TrainConfig):
-    """``TrainConfig`` for a team; the fields below are new or have another default."""
+    """``TrainConfig`` for a team; the fields below are new or have another default. How its first runs
+    went (and the centralised critic against a local one): ``docs/experiments.md``, "The learned team"."""
 
     layouts: list[str] = field(default_factory=lambda: ["full_cabin"])
     """Training layouts, round-robin over the team envs: the whole cabin, where teams are scored."""
