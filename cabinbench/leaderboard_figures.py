@@ -189,10 +189,11 @@ def training_figures(training: Path, folder: Path) -> list[Path]:
         config = json.loads((metrics.parent / "config.json").read_text(encoding="utf-8"))
         path = folder / f"training__{safe_name(metrics.parent.name)}.png"
         validation = metrics.parent / "validation.csv"
+        team = f", K = {config['n_agents']}" if "n_agents" in config else ""  # a team trainer's
         plot_curves(
             read_metrics(metrics),
             path,
-            title=f"{config['ablation']} on {' + '.join(config['layouts'])}, "
+            title=f"{metrics.parent.name} on {' + '.join(config['layouts'])}{team}, "
             f"seed {config['seed']}: training curves",
             validation=read_metrics(validation) if validation.exists() else None,
         )

@@ -5,7 +5,7 @@
 # With `learned`, only the learned baselines are played again (after retraining them): the records of the classic
 # baselines are kept, since nothing they depend on changed.
 set -euo pipefail
-learned_baselines="ppo_gail ppo ppo_icm ppo_gail_only ppo_gail_study"
+learned_baselines="ppo_gail ppo ppo_icm ppo_gail_only ppo_gail_study ppo_gail_team"
 if [ $# -gt 1 ] || { [ $# = 1 ] && [ "$1" != learned ]; }; then
   echo "usage: bash results/make_results.sh [learned]" >&2
   exit 2
@@ -67,6 +67,18 @@ for baseline in $learned_baselines; do
     done
   fi
 done
+
+# The learned team (ppo_gail_team, one policy shared by the robots) for K = 2, 4 on the two large layouts (K = 1 is
+# recorded above), beside the single-robot ppo_gail run on every robot of the team.
+if [ -f baselines/ppo_gail/checkpoints/ppo_gail_team.pt ]; then
+  for layout in full_cabin b777_3col; do
+    for agents in 2 4; do
+      for baseline in ppo_gail_team ppo_gail; do
+        runs "0 100" 5 results/runs --agents "$agents" --baseline "$baseline" --layout "$layout" --protocol sequential
+      done
+    done
+  done
+fi
 
 # The suites (benchmark protocol v1): one episode on every layout of cabin-v1-test, then of cabin-v1-ood, each
 # from a start pose drawn from the episode's seed; the classic baselines K = 1 first, then the shipped policy.

@@ -24,6 +24,7 @@ from cabinbench.agents import load_baseline
 from cabinbench.baselines.ppo_gail import training
 from cabinbench.baselines.ppo_gail.algorithm import PPOCuriosityGail
 from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR, PolicyFileError, read_policy_file
+from cabinbench.baselines.ppo_gail.team_training import TeamTrainConfig
 from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.episodes import run_episode
 
@@ -427,14 +428,16 @@ def test_train_cli_options_set_the_training_config(tmp_path):
 
 
 def test_committed_training_configs_read_back_as_they_were_written():
-    """``config.json`` is ``TrainConfig.to_dict()``, which ``from_dict`` reads back (a resumed run, the
-    leaderboard's reward-signal columns): every committed one round-trips to the same bytes, with the
+    """``config.json`` is ``TrainConfig.to_dict()`` (``TeamTrainConfig``'s for ``ppo_gail_team``), which
+    ``from_dict`` reads back (a resumed run, the leaderboard's reward-signal columns): every committed one
+    round-trips to the same bytes, with the
     ablation's ``use_curiosity`` and ``use_gail``."""
     paths = sorted(COMMITTED_TRAINING.rglob("config.json"))
     assert len(paths) >= 4
     for path in paths:
         text = path.read_text()
-        config = training.TrainConfig.from_dict(json.loads(text))
+        config_class = TeamTrainConfig if path.parent.name == "ppo_gail_team" else training.TrainConfig
+        config = config_class.from_dict(json.loads(text))
         assert json.dumps(config.to_dict(), indent=2) + "\n" == text, path
         assert {"use_curiosity", "use_gail"} <= json.loads(text).keys()  # what the leaderboard reads
     with pytest.raises(ValueError, match="unknown TrainConfig field.*'gail_strenght'"):

@@ -18,10 +18,21 @@ from .baseline import Boustrophedon
 
 
 def record_demonstrations(
-    layout: str, episodes: int, path: str, seed: int = 0, action_noise: float = 0.0, **env_kwargs
+    layout: str,
+    episodes: int,
+    path: str,
+    seed: int = 0,
+    action_noise: float = 0.0,
+    n_agents: int = 1,
+    **env_kwargs,
 ) -> dict:
     """Run the planner for ``episodes`` episodes and save (observation, action) pairs to ``path``.
     Returns a summary (steps, mean coverage, success rate).
+
+    With ``n_agents`` > 1 the team planner runs in the PettingZoo team env (one planner per robot,
+    each told its seat) and every robot's pairs are recorded, robot after robot at each step: the
+    demonstrations of a shared team policy. ``env_kwargs`` are the env's (the team env's for a team;
+    ``max_steps`` is its step limit either way).
 
     With ``action_noise`` > 0 the env executes the planner's action plus Gaussian noise of that
     std (clipped to [-1, 1]), while the planner's own action is what is recorded (DART, Laskey et
@@ -29,34 +40,44 @@ def record_demonstrations(
     path differently and records how the expert gets back: demonstrations that cover the states
     around the path. Without noise, the planner in the deterministic env repeats one trajectory
     in every episode."""
-    from cabinbench.envs.coverage_env import CoverageEnv
+    from cabinbench.envs.coverage_env import observation_config
+    from cabinbench.episodes import make_env
+    from cabinbench.layout import load_layout
 
-    env = CoverageEnv(layout, **env_kwargs)
+    protocol = env_kwargs.pop("protocol", "sequential")
+    env = make_env(load_layout(layout), protocol, n_agents, env_kwargs)
     observations, actions, episode_of, records = [], [], [], []
     for episode in range(episodes):
         observation, info = env.reset(seed=seed + episode)
         noise = np.random.default_rng([seed, episode])
-        planner = Boustrophedon()
-        context = EpisodeContext(
-            env.layout, env.world.protocol, seed + episode, observation_layout=env.observation_layout
-        )
-        planner.reset(context, observation, info)
-        done = False
-        while not done:
-            action = np.clip(planner.act(observation, info), -1, 1)
-            observations.append(observation)
-            actions.append(action)
-            episode_of.append(episode)
-            executed = action + noise.normal(0.0, action_noise, 2) if action_noise > 0 else action
-            observation, _, terminated, truncated, info = env.step(executed)
-            done = terminated or truncated
-        records.append(info["episode_record"])
+        planners = {agent: Boustrophedon() for agent in env.agents}
+        for index, (agent, planner) in enumerate(planners.items()):
+            context = EpisodeContext(
+                env.unwrapped.layout,
+                protocol,
+                seed + episode,
+                agent=index,
+                n_agents=n_agents,
+                env_config=env_kwargs,
+                observation_layout=env.unwrapped.observation_layout,
+            )
+            planner.reset(context, observation[agent], info[agent])
+        while env.agents:
+            executed = {}
+            for agent, planner in planners.items():
+                action = np.clip(planner.act(observation[agent], info[agent]), -1, 1)
+                observations.append(observation[agent])
+                actions.append(action)
+                episode_of.append(episode)
+                executed[agent] = action + noise.normal(0.0, action_noise, 2) if action_noise > 0 else action
+            observation, _, _, _, info = env.step(executed)
+        records.append(next(iter(info.values()))["episode_record"])
     np.savez_compressed(
         path,
         observations=np.array(observations, dtype=np.float32),
         actions=np.array(actions, dtype=np.float32),
         episode=np.array(episode_of, dtype=np.int32),
-        observation_config=np.array(json.dumps(env.observation_config)),
+        observation_config=np.array(json.dumps(observation_config(env_kwargs, len(observations[0])))),
     )
     return {
         "steps": len(actions),

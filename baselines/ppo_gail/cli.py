@@ -2,6 +2,8 @@
 
     python -m cabinbench.train --baseline ppo_gail|ppo|ppo_icm|ppo_gail_only
     python -m cabinbench.train --baseline ppo_gail_study --stage cleaning|tracking
+    python -m cabinbench.train --baseline ppo_gail_team [--agents K] [--[no-]centralised-critic]
+        [--team-weight W] [--init-policy FILE|NAME]
         [--layout NAME ...] [--iterations N] [--num-envs N] [--steps-per-env N] [--seed S]
         [--reward paper|coverage] [--[no-]terminate-on-bound] [--max-steps N] [--algorithm JSON]
         [--min-action-std X] [--coverage-patch N] [--coverage-patch-cell M] [--[no-]random-start]
@@ -17,6 +19,11 @@ configuration (``cabinbench.baselines.ppo_gail.study``), the run lives in
 planned, time, final metrics) beside it. ``--export-latest`` trains nothing: it exports the run's latest
 checkpoint as its ``policy.pt`` (its training summary says how many of the planned iterations it had), for
 ``--ship``.
+
+``ppo_gail_team`` is one policy shared by every robot of a team, trained in the batched team env
+(``cabinbench.baselines.ppo_gail.team_training``, whose ``TeamTrainConfig`` gives its defaults:
+``full_cabin``, K = 2, a centralised critic, the actor started from the shipped ``ppo_gail``); its records are
+kept as an ablation's are.
 
 Otherwise options not given take the defaults of ``cabinbench.baselines.ppo_gail.training.TrainConfig`` (the
 shipped policies' configuration; with ``--layout`` repeated, one policy trains on all of them, by default
@@ -61,7 +68,9 @@ from cabinbench.rewards import REWARD_PRESETS
 EXIT_USAGE, EXIT_INTERRUPTED = 2, 130
 ABLATION_NAMES = ("ppo_gail", "ppo", "ppo_icm", "ppo_gail_only")  # = ...ppo_gail.algorithm.ABLATIONS
 STUDY_NAME = "ppo_gail_study"  # two networks, one per --stage (cabinbench.baselines.ppo_gail.study)
-TRAINABLE = (*ABLATION_NAMES, STUDY_NAME)
+TEAM_NAME = "ppo_gail_team"  # one policy shared by a team (cabinbench.baselines.ppo_gail.team_training)
+TEAM_OPTIONS = ("n_agents", "centralised_critic", "team_weight", "init_policy")  # TeamTrainConfig's own
+TRAINABLE = (*ABLATION_NAMES, STUDY_NAME, TEAM_NAME)
 TRAINING_RECORDS = Path("results/training")  # what --ship and --keep keep of a run
 SHIP_DIR = Path("baselines/ppo_gail/checkpoints")  # the repository's, never the installed package's
 
@@ -141,6 +150,24 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         metavar="STD",
         help="Gaussian noise on the expert's executed actions while recording (0: none)",
     )
+    team = parser.add_argument_group(f"{TEAM_NAME} only")
+    team.add_argument(
+        "--agents", type=int, dest="n_agents", metavar="K", help="robots per team env (default 2)"
+    )
+    team.add_argument(
+        "--centralised-critic",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="the critic also sees the team env's state() (default: yes)",
+    )
+    team.add_argument(
+        "--team-weight", type=float, help="weight of the team's new area in each robot's reward"
+    )
+    team.add_argument(
+        "--init-policy",
+        metavar="FILE|NAME",
+        help='policy file (or shipped name) the actor starts from (default ppo_gail; "" : random weights)',
+    )
     parser.add_argument("--run-dir", help="run directory (default runs/train/<baseline>__seed<S>)")
     parser.add_argument(
         "--resume", action="store_true", help="continue the run in --run-dir from its latest checkpoint"
@@ -213,16 +240,26 @@ def build_config(args: argparse.Namespace):
         )
         if getattr(args, name) is not None
     }
+    team_given = {name: getattr(args, name) for name in TEAM_OPTIONS if getattr(args, name) is not None}
+    if team_given and args.baseline != TEAM_NAME:
+        raise ValueError(
+            f"--agents, --centralised-critic, --team-weight and --init-policy are for {TEAM_NAME}"
+        )
     if args.baseline == STUDY_NAME:
         from cabinbench.baselines.ppo_gail.study import study_config
 
         config = study_config(args.stage, **given)
+    elif args.baseline == TEAM_NAME:
+        from cabinbench.baselines.ppo_gail.team_training import TeamTrainConfig
+
+        given |= team_given
+        config = TeamTrainConfig(**given)
     else:
         config = TrainConfig(ablation=args.baseline, **given)
     run_dir = Path(args.run_dir) if args.run_dir else default_run_dir(config, name=policy_name(args))
     saved_path = run_dir / CONFIG_FILE
     if (args.resume or args.export_latest) and saved_path.exists():
-        config = TrainConfig.from_dict({**json.loads(saved_path.read_text()), **given})
+        config = type(config).from_dict({**json.loads(saved_path.read_text()), **given})
     return config, run_dir
 
 
@@ -405,7 +442,7 @@ def run_dir(args: argparse.Namespace) -> Path:
     return (
         Path(args.run_dir)
         if args.run_dir
-        else default_run_dir(TrainConfig(ablation=args.baseline, seed=args.seed))
+        else default_run_dir(TrainConfig(seed=args.seed), name=policy_name(args))
     )
 
 

@@ -1,5 +1,5 @@
-"""The learned baselines ppo_gail, ppo, ppo_icm, ppo_gail_only and ppo_gail_study: their shipped policies, in
-plain torch (``ppo_gail_study`` runs a pair of them, see ``PPOGailStudy``).
+"""The learned baselines ppo_gail, ppo, ppo_icm, ppo_gail_only, ppo_gail_team and ppo_gail_study: their
+shipped policies, in plain torch (``ppo_gail_study`` runs a pair of them, see ``PPOGailStudy``).
 
 Each baseline loads its policy file (default ``baselines/ppo_gail/checkpoints/<ablation>.pt``, or
 ``checkpoint=`` in its config, e.g. ``--config '{"checkpoint": "runs/train/ppo_gail__seed0/policy.pt"}'``)
@@ -15,7 +15,7 @@ plain values and tensors, written by ``export_policy`` at the end of training
 (``baselines.ppo_gail.training``)::
 
     format              "cabinbench-policy/1"
-    ablation            "ppo_gail" | "ppo" | "ppo_icm" | "ppo_gail_only"
+    ablation            "ppo_gail" | "ppo" | "ppo_icm" | "ppo_gail_only" | "ppo_gail_team" (the baseline)
     actor               {"hidden_dims": [64, 64], "activation": "elu", "observation_size": D,
                          "action_size": 2,
                          "state_dict": the MLP's weights, rsl-rl's key names ("0.weight", "0.bias", ...)}
@@ -24,7 +24,8 @@ plain values and tensors, written by ``export_policy`` at the end of training
     observation_config  the observation settings the policy was trained with, and D
                         (``CoverageEnv.observation_config``); ``run`` makes the env with them
                         (``env_options``)
-    env_config          the training envs' layouts, reward preset, terminate_on_bound, max_steps
+    env_config          the training envs' layouts, reward preset, terminate_on_bound, max_steps (a team's:
+                        n_agents, team_weight)
     training            the training summary: iterations, steps, time, final coverage and success ...
 
 The actor is rebuilt here from its saved architecture in plain torch (no rsl-rl import), and reproduces
@@ -331,6 +332,14 @@ class PPOGailOnly(LearnedPolicy):
     """Ablation: PPO + GAIL, no curiosity."""
 
     name = ablation = "ppo_gail_only"
+
+
+class PPOGailTeam(LearnedPolicy):
+    """PPO + curiosity (ICM) + GAIL trained in teams (ours; ``baselines.ppo_gail.team_training``): one policy
+    shared by every robot, each acting on its own observation. Its file's ``env_config["n_agents"]`` is the
+    team size it was trained with; it runs with any K (``--agents``), and on a single robot."""
+
+    name = ablation = "ppo_gail_team"
 
 
 class PPOGailStudy(Baseline):

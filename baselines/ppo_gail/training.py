@@ -11,7 +11,10 @@ which ``full_cabin`` evaluates zero-shot.
 Read top to bottom:
 
 1. ``TrainConfig``: every setting of a run, with its default and why (``study.study_config`` gives the
-   study's own configuration instead: two networks trained apart, ``ppo_gail_study``).
+   study's own configuration instead: two networks trained apart, ``ppo_gail_study``; ``team_training``'s
+   ``TeamTrainConfig`` a policy shared by a team, ``ppo_gail_team``, through the same functions: the
+   config's ``make_env``, ``obs_groups``, ``initialise``, ``policy_name`` and ``episode_options`` are what
+   differs).
 2. ``train(config, run_dir)``: records expert demonstrations with the boustrophedon planner (or reuses
    given ``.npz`` files), builds ``RslRlVecEnv(BatchedCoverageEnv(...))`` and rsl-rl's ``OnPolicyRunner``
    with the ``PPOCuriosityGail`` algorithm, then runs ``runner.learn(1)`` once per iteration under a tqdm
@@ -208,6 +211,32 @@ class TrainConfig:
             "coverage_patch_cell": self.coverage_patch_cell,
         }
 
+    @property
+    def policy_name(self) -> str:
+        """The baseline that runs the exported policy (``--baseline``): the ablation."""
+        return self.ablation
+
+    @property
+    def episode_options(self) -> dict:
+        """Further ``run_episode`` keywords of the validation episodes (a team's ``n_agents``)."""
+        return {}
+
+    @property
+    def obs_groups(self) -> dict | None:
+        """rsl-rl's observation groups of the actor and the critic; None: both see the policy observation."""
+        return None
+
+    def make_env(self):
+        """The training envs as an rsl-rl ``VecEnv``, their observation config and observation layout."""
+        from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
+
+        batched = BatchedCoverageEnv(self.layouts, self.num_envs, seed=self.seed, **self.env_kwargs)
+        example = batched.example_env
+        return RslRlVecEnv(batched), example.observation_config, example.observation_layout
+
+    def initialise(self, runner) -> None:
+        """Set the weights a new run starts from; here rsl-rl's random ones are kept."""
+
     def to_dict(self) -> dict:
         """Every field, and the ablation's ``REWARD_SIGNALS`` (``use_curiosity``, ``use_gail``): the
         leaderboard reads those from ``config.json`` without importing this baseline
@@ -240,8 +269,8 @@ CHECKPOINT_DIR, DEMO_DIR, VALIDATION_DIR = "checkpoints", "demos", "validation"
 
 
 def default_run_dir(config: TrainConfig, root: str | os.PathLike = "runs/train", name: str = "") -> Path:
-    """``runs/train/<name>__seed<S>``; the name defaults to the ablation."""
-    return Path(root) / f"{name or config.ablation}__seed{config.seed}"
+    """``runs/train/<name>__seed<S>``; the name defaults to the policy's (the ablation)."""
+    return Path(root) / f"{name or config.policy_name}__seed{config.seed}"
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -482,7 +511,7 @@ def train(
         plot_curves(
             rows,
             run_dir / CURVES_FILE,
-            title=f"{config.ablation} on {' + '.join(config.layouts)}",
+            title=f"{config.policy_name} on {' + '.join(config.layouts)}",
             validation=validation,
         )
     if interrupted:
@@ -509,7 +538,7 @@ def export_run_policy(runner, config: TrainConfig, obs_config: dict, path: Path,
     return export_policy(
         runner,
         path,
-        ablation=config.ablation,
+        ablation=config.policy_name,
         observation_config=obs_config,
         env_config={"layouts": config.layouts, **config.env_kwargs},
         training=training,
@@ -538,21 +567,18 @@ def build_runner(config: TrainConfig, run_dir: Path):
     the training envs' observation config. Its logger is a ``TrainingLog``."""
     from rsl_rl.runners import OnPolicyRunner
 
-    from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
-
     torch.set_num_threads(config.threads)
     torch.manual_seed(config.seed)
     np.random.seed(config.seed)
 
     demonstrations = expert_demonstrations(config, run_dir) if config.uses_gail else []
-    batched = BatchedCoverageEnv(config.layouts, config.num_envs, seed=config.seed, **config.env_kwargs)
-    env = RslRlVecEnv(batched)
-    obs_config = batched.example_env.observation_config
+    env, obs_config, obs_layout = config.make_env()
     train_cfg = make_train_cfg(
         config.ablation,
         expert_demonstrations=demonstrations,
         expected_observation_config=obs_config,
-        shaping_columns=shaping_columns(batched.example_env.observation_layout),
+        shaping_columns=shaping_columns(obs_layout),
+        obs_groups=config.obs_groups,
         num_steps_per_env=config.num_steps_per_env,
         num_mini_batches=config.num_mini_batches,
         hidden_dims=config.hidden_dims,
@@ -566,8 +592,8 @@ def build_runner(config: TrainConfig, run_dir: Path):
         train_cfg["actor"]["distribution_cfg"]["std_range"] = [config.min_action_std, 1.0e6]
     with open(run_dir / "rsl_rl.log", "a") as log, contextlib.redirect_stdout(log):
         runner = OnPolicyRunner(env, train_cfg, log_dir=None, device="cpu")  # prints the models
-    steps_per_iteration = config.num_envs * config.num_steps_per_env
-    runner.logger = TrainingLog(config.num_envs, steps_per_iteration)
+    runner.logger = TrainingLog(env.num_envs, env.num_envs * config.num_steps_per_env)
+    config.initialise(runner)
 
     return runner, obs_config
 
@@ -604,7 +630,7 @@ def prepare_run_dir(config: TrainConfig, run_dir: Path, resume: bool) -> Path | 
     elif saved_config_path.exists():
         # through TrainConfig: a field added since the run started takes its default, as the resumed run does
         saved = json.loads(
-            json.dumps(TrainConfig.from_dict(json.loads(saved_config_path.read_text())).to_dict())
+            json.dumps(type(config).from_dict(json.loads(saved_config_path.read_text())).to_dict())
         )
         differences = sorted(
             key
@@ -684,7 +710,7 @@ def _progress_bar(config: TrainConfig, start: int, enabled: bool):
         total=config.iterations,
         initial=start,
         unit="it",
-        desc=config.ablation,
+        desc=config.policy_name,
         file=sys.stderr,
         dynamic_ncols=True,
         disable=not enabled,
@@ -747,11 +773,12 @@ def validate_checkpoints(runner, config: TrainConfig, run_dir: Path, export) -> 
             for name, layout in layouts.items():
                 records = [
                     run_episode(
-                        config.ablation,
+                        config.policy_name,
                         layout,
                         VALIDATION_SEED + episode,
                         env_kwargs=env_kwargs,
                         config={"checkpoint": str(policy)},
+                        **config.episode_options,
                     )[0]
                     for episode in range(config.validation_episodes)
                 ]

@@ -31,6 +31,11 @@ The lidar part is ray-major (the shipped policies' order), so it is one slice, n
 ``lidar_distance`` and ``lidar_tags``: see :mod:`cabinbench.envs.coverage_env` and
 :mod:`cabinbench.observation`.
 
+What a robot sees of the others: only what its lidar returns (a ray that hits a robot carries the
+``robot`` tag and its distance) and, with a patch, the floor they cleaned shown as clean. Never
+their poses, actions or observations: a policy acting on one robot's observation runs unchanged on
+every robot (decentralised execution; :mod:`cabinbench.envs.batched_team` trains one that way).
+
 **State** (``state()``, ``state_space``): ``Box(float32, (6 * K + 4 + n_goals,))``. Per robot,
 in agent order: x and y normalised by the layout's extent to [0, 1], cos and sin of the heading,
 forward speed / ``max_speed`` and turn rate / ``max_turn_rate`` (clipped to [-1, 1]). Then the
@@ -46,6 +51,9 @@ team coverage, the fraction of cells cleared, current cell / number of cells, st
   ``team_weight`` × the team's newly covered fraction, own area included), -0.1 per contact,
   -1 per bound contact, -0.005 per step, +1 per cell the team clears (paid to every robot),
   +0.5 per exit reached.
+
+Both mix a team reward (cells cleared, and with ``coverage`` the team's new area) with the robot's
+own terms (its area, its contacts), so each robot is credited for its part of the team's work.
 
 **Episode end**: every agent is terminated when the team meets the layout's success criterion
 (``sequential``: every cell cleared; ``open``: coverage ≥ the layout's ``success_coverage``);
