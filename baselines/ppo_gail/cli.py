@@ -24,19 +24,20 @@ shipped policies' configuration; with ``--layout`` repeated, one policy trains o
 ``a320_cell`` and ``a320_tracking_cell``). With ``--suite NAME`` (e.g. ``cabin-v1-train``) it trains on the
 suite instead, through ``CabinBench/Suite-v0``: every env draws a new layout of the suite at each reset; the
 expert demonstrates on ``--demo-layouts`` of its layouts, validation plays one episode on each of
-``--validation-episodes`` of them, and the policy ships as ``<baseline>_suite`` (``ppo_gail_suite``).
-The run lives in ``--run-dir`` (default ``runs/train/<baseline>__seed<S>``): config, demonstrations,
-checkpoints, ``metrics.csv``, ``curves.png`` and the exported ``policy.pt``. ``--resume`` continues an
-interrupted run from its latest checkpoint, with the saved config (``--iterations`` may raise the total).
-At the end every checkpoint's policy plays ``--validation-episodes`` episodes (default 20) on each training layout (``validation.csv`` in the run
-directory); ``--export best`` exports the checkpoint that did best there instead of the last (see
-``TrainConfig.export`` for why the last is the default). ``--ship`` copies the exported policy to
-``<ship-dir>/<baseline>.pt`` (``--ship-dir``, default the repository's ``baselines/ppo_gail/checkpoints``: run
-it from the repository root), where ``python -m cabinbench.run --baseline <baseline>`` finds it, and the run's
-``config.json``, ``metrics.csv`` and ``validation.csv`` to ``results/training/<baseline>/``, from which
-``python -m cabinbench.leaderboard`` draws the committed training curves. ``--keep`` copies the policy,
-``config.json``, ``metrics.csv`` and ``validation.csv`` to ``results/training/<baseline>/seed<S>/``: a further
-training run of the same command, which ``results/make_results.sh`` scores into ``results/ablation.md``.
+``--validation-episodes`` of them, and the policy ships as ``<baseline>_suite`` (``ppo_gail_suite``). The run
+lives in ``--run-dir`` (default ``runs/train/<baseline>__seed<S>``): config, demonstrations, checkpoints,
+``metrics.csv``, ``curves.png`` and the exported ``policy.pt``. ``--resume`` continues an interrupted run from
+its latest checkpoint, with the saved config (``--iterations`` may raise the total). At the end every
+checkpoint's policy plays ``--validation-episodes`` episodes (default 20) on each training layout
+(``validation.csv`` in the run directory); ``--export best`` exports the checkpoint that did best there
+instead of the last (see ``TrainConfig.export`` for why the last is the default). ``--ship`` copies the
+exported policy to ``<ship-dir>/<baseline>.pt`` (``--ship-dir``, default the repository's
+``baselines/ppo_gail/checkpoints``: run it from the repository root), where ``python -m cabinbench.run
+--baseline <baseline>`` finds it, and the run's ``config.json``, ``metrics.csv`` and ``validation.csv`` to
+``results/training/<baseline>/``, from which ``python -m cabinbench.leaderboard`` draws the committed training
+curves. ``--keep`` copies the policy, ``config.json``, ``metrics.csv`` and ``validation.csv`` to
+``results/training/<baseline>/seed<S>/``: a further training run of the same command, which
+``results/make_results.sh`` scores into ``results/ablation.md``.
 
 ``--seeds S ...`` trains one run per seed at once, each exactly as ``--seed S`` would, in its own default run
 directory (one CPU each): in local processes, or with ``--executor ray`` as Ray tasks on the cluster at
