@@ -17,6 +17,7 @@ from cabinbench.layout import LayoutError, geometry_hash, parse_layout
 from cabinbench.layout_family import families_dir, generate, load_family
 from cabinbench.records import read_records
 from cabinbench.run import main as run_main
+from cabinbench.stats import stratified_bootstrap
 from cabinbench.suites import available_suites, get_suite, shared_layouts, verify
 from cabinbench.world import random_start_poses, start_cell_spots
 
@@ -165,6 +166,13 @@ def test_run_suite_records_suite_start_and_time_limit(tmp_path, capsys):
     assert sorted(set(records["layout"])) == ["cabin-v1-test/0000", "cabin-v1-test/0001"]
     assert (records["suite"] == "cabin-v1-test").all()
     assert sorted(records["seed"] + records["episode"]) == [0, 1, 2, 3]  # every episode its own seed
+    # the summary is the suite's: mean over layouts of per-layout means, stratified bootstrap interval
+    cells = {("run", layout): group["coverage"].tolist() for layout, group in records.groupby("layout")}
+    expected = stratified_bootstrap(cells)
+    coverage = summary["metrics"]["coverage"]
+    assert (coverage["mean"], coverage["ci_low"], coverage["ci_high"]) == pytest.approx(
+        (expected.mean, expected.low, expected.high)
+    )
     starts = np.array(records["start"].tolist())
     assert len({tuple(s) for s in starts}) == 4
     for (_, record), start in zip(records.iterrows(), starts):
