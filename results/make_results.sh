@@ -89,18 +89,19 @@ done
 # (ppo_gail) and on cabin-v1-train (ppo_gail_suite, results/train_suite_policies.sh), every training seed, on the
 # first 30-50 layouts of cabin-v1-train (layouts are drawn independently by index: the first ones are a fixed random
 # sample), 50 of cabin-v1-test and 25 of cabin-v1-ood; the shipped ppo_gail's test and ood episodes are the ones
-# above. Sized to one session's shared core; ppo_gail's seed 2 is not scored on the suites yet.
+# above. Sized to one session's shared core.
 gap_run() { local suite=$1 layouts=$2 baseline=$3 policy=${4:-}; local config=()
   if [ -n "$policy" ]; then config=(--config "{\"checkpoint\": \"$policy\"}"); fi
   suite_run --suite "$suite" --layouts "$layouts" --baseline "$baseline" "${config[@]}"; }
 if [ -f baselines/ppo_gail/checkpoints/ppo_gail.pt ]; then
   gap_run cabin-v1-train 50 ppo_gail
 fi
-if [ -f results/training/ppo_gail/seed1/policy.pt ]; then
-  gap_run cabin-v1-train 50 ppo_gail results/training/ppo_gail/seed1/policy.pt
-  gap_run cabin-v1-test 50 ppo_gail results/training/ppo_gail/seed1/policy.pt
-  gap_run cabin-v1-ood 25 ppo_gail results/training/ppo_gail/seed1/policy.pt
-fi
+for policy in results/training/ppo_gail/seed*/policy.pt; do
+  [ -f "$policy" ] || continue
+  gap_run cabin-v1-train 50 ppo_gail "$policy"
+  gap_run cabin-v1-test 50 ppo_gail "$policy"
+  gap_run cabin-v1-ood 25 ppo_gail "$policy"
+done
 for policy in baselines/ppo_gail/checkpoints/ppo_gail_suite.pt results/training/ppo_gail_suite/seed*/policy.pt; do
   [ -f "$policy" ] || continue
   if [ "$policy" = baselines/ppo_gail/checkpoints/ppo_gail_suite.pt ]; then policy=""; fi  # the shipped one
