@@ -101,10 +101,17 @@ def load_family(name_or_path: str | Path) -> Family:
             raise LayoutError(
                 str(name_or_path), "<family>", "unknown family", f"use one of {known} or a path"
             )
-    text = read_text(path)
-    spec = parse_yaml(text, str(path))
-    _check_family(FieldChecker(str(path)), spec)
-    return Family(path.stem, str(path), spec, hashlib.sha256(text.encode()).hexdigest())
+    return _parsed_family(str(path), read_text(path))
+
+
+@lru_cache(maxsize=32)
+def _parsed_family(path: str, text: str) -> Family:
+    """A family file's content parsed and checked once (keyed by its text, so an edited file is read
+    anew): a suite names its family by name, and parsing the YAML again for every layout loaded was a
+    fifth of a layout's generation time."""
+    spec = parse_yaml(text, path)
+    _check_family(FieldChecker(path), spec)
+    return Family(Path(path).stem, path, spec, hashlib.sha256(text.encode()).hexdigest())
 
 
 def _check_range(check: FieldChecker, value, field: str, integer: bool = False) -> None:

@@ -65,7 +65,7 @@ from .layout import load_layout
 from .metrics import METRICS, TEAM_METRICS
 from .records import RunWriter, run_header, run_path
 from .rewards import REWARD_PRESETS
-from .stats import Summary, distinct_episodes, summarize
+from .stats import Summary, distinct_episodes, summarize, summarize_cells
 from .submissions import write_submission
 from .suites import get_suite
 from .world import PROTOCOLS, start_poses
@@ -221,14 +221,26 @@ def summary_metrics(record: dict) -> list[str]:
     return [name for name in names if record[name] is None or isinstance(record[name], (bool, int, float))]
 
 
-def summarize_run(records: list[dict]) -> dict[str, Summary]:
+def summarize_run(records: list[dict], layouts: list[str] | None = None) -> dict[str, Summary]:
     """Each metric's summary over the run's distinct episodes (a deterministic baseline from a
-    fixed start repeats one episode: one unit, no interval)."""
+    fixed start repeats one episode: one unit, no interval). With ``layouts`` (each record's, a
+    suite run) the mean over layouts of per-layout means, with the stratified bootstrap interval
+    (layouts, and episodes within each, resampled), as the leaderboard's suites section gives it."""
     import pandas as pd
 
-    distinct = distinct_episodes(pd.DataFrame(records)).to_dict("records")
+    frame = pd.DataFrame(records)
+    if layouts is not None:
+        frame["layout"] = layouts
+    distinct = distinct_episodes(frame, within=("layout",) if layouts is not None else ())
+    if layouts is None:
+        rows = distinct.to_dict("records")
+        return {name: summarize(name, [row[name] for row in rows]) for name in summary_metrics(records[0])}
+    layouts = dict(list(distinct.groupby("layout", sort=True)))
     return {
-        name: summarize(name, [record[name] for record in distinct]) for name in summary_metrics(records[0])
+        name: summarize_cells(
+            name, {("run", layout): cell[name].tolist() for layout, cell in layouts.items()}
+        )
+        for name in summary_metrics(records[0])
     }
 
 
@@ -385,7 +397,7 @@ def report(args, name: str, finished: list[EpisodeResult], writers: list[RunWrit
         finished, key=lambda result: (order.get(result.record.get("layout"), 0), result.job.episode)
     )
     records = [result.record for result in finished]
-    summaries = summarize_run(records)
+    summaries = summarize_run(records, [result.job.layout for result in finished] if args.suite else None)
     render = str(args.render) if args.render else None
     paths = [str(writer.path) for writer in writers]
     trajectories = [str(writer.trajectory_path) for writer in writers]
@@ -413,6 +425,7 @@ def report(args, name: str, finished: list[EpisodeResult], writers: list[RunWrit
     title = (
         f"{args.baseline} on {where} ({args.protocol}, K={args.agents}): {len(records)} episodes, "
         f"seeds {min(seeds)}..{max(seeds)}"
+        + ("; mean over layouts of per-layout means, stratified bootstrap" if args.suite else "")
     )
     print(format_table(summaries, title))
     if args.suite:

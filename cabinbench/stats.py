@@ -25,6 +25,8 @@ float of every metric is not a coincidence worth planning for.
   training seeds): the mean over training seeds of the mean over layouts of per-layout means, with
   a stratified bootstrap interval that resamples training seeds, layouts, and episodes within each
   (seed, layout) cell, as rliable recommends.
+- :func:`stratified_difference`: the difference of two such scores over the same training seeds on
+  different layouts (a generalisation gap), the seeds resampled jointly.
 - :func:`performance_profile`: the fraction of layouts whose score is above each level.
 - :func:`probability_of_improvement`: P(X > Y), per layout the Mann-Whitney probability that an
   episode of X beats one of Y (ties count half), averaged over layouts, with a bootstrap interval
@@ -226,19 +228,51 @@ def stratified_bootstrap(cells: Mapping[tuple[str, str], Sequence[float]]) -> Su
         raise ValueError("stratified_bootstrap: a (seed, layout) cell has no episodes")
     if len(values) == 1:
         return mean_ci(next(iter(values.values())))
-    means = np.array([[values[p, layout].mean() for layout in layouts] for p in policies])
-    mean = float(means.mean())
-    n = sum(len(cell) for cell in values.values())
     rng = np.random.default_rng(BOOTSTRAP_SEED)
+    mean, resampled = _resampled_cells(values, rng)
+    seed_weights = _resample_weights(rng, len(policies))
+    layout_weights = _resample_weights(rng, len(layouts))
+    estimates = np.einsum("bp,bpl,bl->b", seed_weights, resampled, layout_weights)
+    return Summary(mean, *_percentile_interval(estimates), sum(len(cell) for cell in values.values()))
+
+
+def _resampled_cells(values: Mapping[tuple[str, str], np.ndarray], rng) -> tuple[float, np.ndarray]:
+    """The mean over seeds and layouts of per-cell means, and (RESAMPLES, seeds, layouts): each cell's
+    mean over its episodes drawn with replacement (seeds and layouts sorted)."""
+    policies = sorted({policy for policy, _ in values})
+    layouts = sorted({layout for _, layout in values})
+    means = np.array([[values[p, layout].mean() for layout in layouts] for p in policies])
     resampled = np.empty((RESAMPLES, len(policies), len(layouts)))
     for i, p in enumerate(policies):
         for j, layout in enumerate(layouts):
             cell = values[p, layout]
             resampled[:, i, j] = cell[rng.integers(0, len(cell), (RESAMPLES, len(cell)))].mean(axis=1)
-    seed_weights = _resample_weights(rng, len(policies))
-    layout_weights = _resample_weights(rng, len(layouts))
-    estimates = np.einsum("bp,bpl,bl->b", seed_weights, resampled, layout_weights)
-    return Summary(mean, *_percentile_interval(estimates), n)
+    return float(means.mean()), resampled
+
+
+def stratified_difference(
+    x: Mapping[tuple[str, str], Sequence[float]], y: Mapping[tuple[str, str], Sequence[float]]
+) -> Summary:
+    """The :func:`stratified_bootstrap` score of ``y`` minus that of ``x``: the same training seeds on two
+    sets of layouts (a generalisation gap: test minus train). Each resample draws the seeds once for both
+    (a seed's two scores are paired), and the layouts and episodes of each side apart. Without the same
+    seeds on both sides (or with one cell a side) the difference has no interval. ``n`` counts both sides'
+    distinct episodes."""
+    sides = [{key: _numbers(cell) for key, cell in cells.items()} for cells in (x, y)]
+    for side in sides:
+        stratified_bootstrap(side)  # the same checks: every seed has every layout, no empty cell
+    seeds = [sorted({policy for policy, _ in side}) for side in sides]
+    n = sum(len(cell) for side in sides for cell in side.values())
+    rng = np.random.default_rng(BOOTSTRAP_SEED)
+    (x_mean, x_cells), (y_mean, y_cells) = (_resampled_cells(side, rng) for side in sides)
+    if seeds[0] != seeds[1] or any(len(side) == 1 for side in sides):
+        return Summary(y_mean - x_mean, math.nan, math.nan, n)
+    seed_weights = _resample_weights(rng, len(seeds[0]))
+    x_layouts, y_layouts = (_resample_weights(rng, cells.shape[2]) for cells in (x_cells, y_cells))
+    estimates = np.einsum("bp,bpl,bl->b", seed_weights, y_cells, y_layouts) - np.einsum(
+        "bp,bpl,bl->b", seed_weights, x_cells, x_layouts
+    )
+    return Summary(y_mean - x_mean, *_percentile_interval(estimates), n)
 
 
 def performance_profile(scores, levels) -> np.ndarray:

@@ -5,7 +5,7 @@
 # With `learned`, only the learned baselines are played again (after retraining them): the records of the classic
 # baselines are kept, since nothing they depend on changed.
 set -euo pipefail
-learned_baselines="ppo_gail ppo ppo_icm ppo_gail_only ppo_gail_study ppo_gail_team"
+learned_baselines="ppo_gail ppo ppo_icm ppo_gail_only ppo_gail_study ppo_gail_team ppo_gail_suite"
 if [ $# -gt 1 ] || { [ $# = 1 ] && [ "$1" != learned ]; }; then
   echo "usage: bash results/make_results.sh [learned]" >&2
   exit 2
@@ -61,6 +61,7 @@ fi
 # Learned policies (shipped checkpoints), zero-shot on all but the training cell. ppo_gail_study is a pair of
 # networks, ppo_gail_study_cleaning.pt and ppo_gail_study_tracking.pt.
 for baseline in $learned_baselines; do
+  [ "$baseline" = ppo_gail_suite ] && continue  # scored on the suites only (below): no classic rows recorded yet
   if [ -f "baselines/ppo_gail/checkpoints/$baseline.pt" ] || [ -f "baselines/ppo_gail/checkpoints/${baseline}_cleaning.pt" ]; then
     for layout in a320_cell shape_changed b777_3col full_cabin; do
       run --baseline "$baseline" --layout "$layout" --protocol sequential
@@ -96,11 +97,37 @@ for suite in cabin-v1-test cabin-v1-ood; do
   fi
 done
 
+# The generalisation gap (the leaderboard's "Generalisation gap"): the learned policies trained on the two cells
+# (ppo_gail) and on cabin-v1-train (ppo_gail_suite, results/train_suite_policies.sh), every training seed, on the
+# first 30-50 layouts of cabin-v1-train (layouts are drawn independently by index: the first ones are a fixed random
+# sample), 50 of cabin-v1-test and 25 of cabin-v1-ood; the shipped ppo_gail's test and ood episodes are the ones
+# above. Sized to one session's shared core.
+gap_run() { local suite=$1 layouts=$2 baseline=$3 policy=${4:-}; local config=()
+  if [ -n "$policy" ]; then config=(--config "{\"checkpoint\": \"$policy\"}"); fi
+  suite_run --suite "$suite" --layouts "$layouts" --baseline "$baseline" "${config[@]}"; }
+if [ -f baselines/ppo_gail/checkpoints/ppo_gail.pt ]; then
+  gap_run cabin-v1-train 50 ppo_gail
+fi
+for policy in results/training/ppo_gail/seed*/policy.pt; do
+  [ -f "$policy" ] || continue
+  gap_run cabin-v1-train 50 ppo_gail "$policy"
+  gap_run cabin-v1-test 50 ppo_gail "$policy"
+  gap_run cabin-v1-ood 25 ppo_gail "$policy"
+done
+for policy in baselines/ppo_gail/checkpoints/ppo_gail_suite.pt results/training/ppo_gail_suite/seed*/policy.pt; do
+  [ -f "$policy" ] || continue
+  if [ "$policy" = baselines/ppo_gail/checkpoints/ppo_gail_suite.pt ]; then policy=""; fi  # the shipped one
+  gap_run cabin-v1-test 50 ppo_gail_suite "$policy"
+  gap_run cabin-v1-ood 25 ppo_gail_suite "$policy"
+  gap_run cabin-v1-train 30 ppo_gail_suite "$policy"
+done
+
 # The learned baselines' further training runs (results/ablation.md): the policies of seeds 1, 2, ... kept in
 # results/training/<baseline>/seed<S>/ by `python -m cabinbench.train --baseline <baseline> --seed <S> --keep`.
 for policy in results/training/*/seed*/policy.pt; do
   [ -f "$policy" ] || continue
   baseline=$(basename "$(dirname "$(dirname "$policy")")")
+  [ "$baseline" = ppo_gail_suite ] && continue  # scored on the suites (above)
   for layout in a320_cell shape_changed b777_3col full_cabin; do
     OUT=results/ablation_runs run --baseline "$baseline" --layout "$layout" --protocol sequential --config "{\"checkpoint\": \"$policy\"}"
   done

@@ -135,3 +135,48 @@ def test_no_suite_records_no_suite_section(tmp_path):
     assert leaderboard.main(["--runs", str(runs), "--out", str(tmp_path / "out")]) == 0
     board = (tmp_path / "out" / "leaderboard.md").read_text()
     assert "Suites" not in board and not list((tmp_path / "out" / "figures").glob("suite__*"))
+
+
+def test_generalisation_gap_is_generated_from_the_records_of_every_training_seed(tmp_path):
+    """A learner with records on cabin-v1-train gets a row of the gap table: its score on the train, test and
+    ood splits over both its policies (stratified bootstrap), and test - train with the seeds paired."""
+    from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR
+    from cabinbench.leaderboard_table import policy_of
+    from cabinbench.stats import stratified_difference
+
+    other = tmp_path / "training" / "ppo" / "seed1" / "policy.pt"
+    other.parent.mkdir(parents=True)
+    other.write_bytes((CHECKPOINT_DIR / "ppo.pt").read_bytes())
+    runs = tmp_path / "runs"
+    for suite in ("cabin-v1-train", "cabin-v1-test", "cabin-v1-ood"):
+        for config in ({}, {"checkpoint": str(other)}):
+            tiny = ["--suite", suite, "--layouts", "2", "--max-steps", "30", "--out", str(runs)]
+            assert run_main(["--baseline", "ppo", *tiny, "--config", json.dumps(config)])[0] == 0
+    out = tmp_path / "out"
+    assert leaderboard.main(["--runs", str(runs), "--out", str(out)]) == 0
+    board = (out / "leaderboard.md").read_text()
+    line = next(
+        line for line in board.split("#### Generalisation gap")[1].splitlines() if line.startswith("| ppo |")
+    )
+    cells = [cell.strip() for cell in line.strip("|").split("|")]
+    records = read_records(runs)
+
+    def cells_of(suite):
+        chosen = records[records["suite"] == suite]
+        policies = [policy_of(config) for config in chosen["baseline_config"]]
+        return {
+            (policy, layout): group["coverage"].tolist()
+            for (policy, layout), group in chosen.assign(policy=policies).groupby(["policy", "layout"])
+        }
+
+    train, test = (
+        stratified_bootstrap(cells_of("cabin-v1-train")),
+        stratified_bootstrap(cells_of("cabin-v1-test")),
+    )
+    assert cells[1] == "2"  # training seeds
+    assert cells[2] == f"{train.mean:.3f} ± {(train.high - train.low) / 2:.3f} (2)"
+    assert cells[3] == f"{test.mean:.3f} ± {(test.high - test.low) / 2:.3f} (2)"
+    gap = stratified_difference(cells_of("cabin-v1-train"), cells_of("cabin-v1-test"))
+    assert gap.mean == pytest.approx(test.mean - train.mean)
+    assert cells[5] == f"{gap.mean:+.3f} [{gap.low:+.3f}, {gap.high:+.3f}]"
+    assert "Finding: ppo covers" in board

@@ -546,3 +546,59 @@ def test_ship_installs_the_policy_and_keeps_its_training_records(tmp_path, monke
     assert len(training_records.read_metrics(kept / "validation.csv")) == 1
     figures = leaderboard.training_figures(tmp_path / "results" / "training", tmp_path)
     assert [path.name for path in figures] == ["training__ppo.png"] and figures[0].stat().st_size > 10_000
+
+
+def test_train_on_a_suite_records_it_resumes_and_ships_ppo_gail_suite(tmp_path, monkeypatch):
+    """``train --baseline ppo_gail --suite cabin-v1-train`` on the real trainer (2 envs, a few iterations):
+    the config, the training summary and the exported policy name the suite and its version; the expert
+    demonstrates on a seeded handful of suite layouts; validation plays suite layouts; an interrupted suite
+    run resumes; the policy ships as ``ppo_gail_suite``, which refuses a policy trained on cells."""
+    from cabinbench.suites import get_suite
+    from cabinbench.train import main as train_main
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "checkpoints").mkdir()
+    common = ["--baseline", "ppo_gail", "--suite", "cabin-v1-train", "--run-dir", "run", "--no-progress"]
+    tiny = ["--num-envs", "2", "--steps-per-env", "8", "--max-steps", "12", "--save-interval", "1"]
+    tiny += ["--demo-layouts", "2", "--demo-episodes", "1", "--validation-episodes", "2"]
+    assert train_main([*common, *tiny, "--iterations", "2"]) == 0
+    config = json.loads((tmp_path / "run" / "config.json").read_text())
+    version = get_suite("cabin-v1-train").version
+    assert (config["suite"], config["suite_version"], config["layouts"]) == ("cabin-v1-train", version, [])
+    assert training.TrainConfig.from_dict(config).to_dict() == config
+    demos = sorted(path.name for path in (tmp_path / "run" / "demos").glob("*.npz"))
+    expected = training.suite_sample("cabin-v1-train", 2, 0)
+    assert demos == [f"{name.split('/')[1]}.npz" for name in expected]
+    assert {row["layout"] for row in training_records.read_metrics(tmp_path / "run" / "validation.csv")} == {
+        "cabin-v1-train"
+    }
+
+    # resumed to a third iteration, from the checkpoint of the second, and shipped as ppo_gail_suite
+    assert train_main([*common, "--iterations", "3", "--resume", "--ship", "--ship-dir", "checkpoints"]) == 0
+    assert [row["iteration"] for row in training_records.read_metrics(tmp_path / "run" / "metrics.csv")] == [
+        "1",
+        "2",
+        "3",
+    ]
+    shipped = tmp_path / "checkpoints" / "ppo_gail_suite.pt"
+    policy = read_policy_file(shipped)
+    assert policy["ablation"] == "ppo_gail" and policy["training"]["iterations"] == 3
+    assert (policy["env_config"]["suite"], policy["env_config"]["suite_version"]) == (
+        "cabin-v1-train",
+        version,
+    )
+    assert policy["training"]["suite"] == "cabin-v1-train"
+    assert json.loads((tmp_path / "results/training/ppo_gail_suite/config.json").read_text())["suite"]
+    record, _ = run_episode(
+        "ppo_gail_suite",
+        "cabin-v1-test/0003",
+        seed=0,
+        env_kwargs={"max_steps": 10},
+        config={"checkpoint": str(shipped)},
+    )
+    assert record["steps"] == 10
+    with pytest.raises(PolicyFileError, match="not on a suite; run it as --baseline ppo_gail"):
+        load_baseline("ppo_gail_suite", checkpoint=str(CHECKPOINT_DIR / "ppo_gail.pt"))
+    # a suite with --layout, or an unknown suite: one line, exit status 2
+    assert train_main([*common[:4], "--layout", "a320_cell", "--run-dir", "other"]) == 2
+    assert train_main(["--baseline", "ppo_gail", "--suite", "cabin-v9", "--run-dir", "other"]) == 2

@@ -120,3 +120,25 @@ def test_spearman_by_hand_and_against_scipy():
     assert noise.mean == pytest.approx(scipy_stats.spearmanr(x, y).statistic)
     assert noise.low < 0 < noise.high  # independent samples: the interval holds zero
     assert math.isnan(spearman([1, 2], [3, 4]).mean) and math.isnan(spearman([1, 1, 1], [1, 2, 3]).mean)
+
+
+def test_stratified_difference_pairs_the_training_seeds():
+    from cabinbench.stats import stratified_bootstrap, stratified_difference
+
+    train = {
+        (seed, f"t{layout}"): [0.5 + 0.1 * seed + 0.01 * layout] for seed in range(3) for layout in range(5)
+    }
+    test = {
+        (seed, f"h{layout}"): [0.4 + 0.1 * seed - 0.01 * layout] for seed in range(3) for layout in range(4)
+    }
+    gap = stratified_difference(train, test)
+    assert gap.mean == pytest.approx(stratified_bootstrap(test).mean - stratified_bootstrap(train).mean)
+    # a seed scores the same offset on both sides: pairing the seeds cancels it, so the gap's interval is
+    # narrower than either side's
+    assert gap.low < gap.mean < gap.high
+    assert gap.high - gap.low < stratified_bootstrap(train).high - stratified_bootstrap(train).low
+    # other seeds on one side: a difference without an interval
+    unpaired = stratified_difference(
+        train, {(seed + 1, layout): cell for (seed, layout), cell in test.items()}
+    )
+    assert math.isnan(unpaired.low) and unpaired.mean == pytest.approx(gap.mean)

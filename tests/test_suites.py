@@ -17,6 +17,7 @@ from cabinbench.layout import LayoutError, geometry_hash, parse_layout
 from cabinbench.layout_family import families_dir, generate, load_family
 from cabinbench.records import read_records
 from cabinbench.run import main as run_main
+from cabinbench.stats import stratified_bootstrap
 from cabinbench.suites import available_suites, get_suite, shared_layouts, verify
 from cabinbench.world import random_start_poses, start_cell_spots
 
@@ -165,6 +166,13 @@ def test_run_suite_records_suite_start_and_time_limit(tmp_path, capsys):
     assert sorted(set(records["layout"])) == ["cabin-v1-test/0000", "cabin-v1-test/0001"]
     assert (records["suite"] == "cabin-v1-test").all()
     assert sorted(records["seed"] + records["episode"]) == [0, 1, 2, 3]  # every episode its own seed
+    # the summary is the suite's: mean over layouts of per-layout means, stratified bootstrap interval
+    cells = {("run", layout): group["coverage"].tolist() for layout, group in records.groupby("layout")}
+    expected = stratified_bootstrap(cells)
+    coverage = summary["metrics"]["coverage"]
+    assert (coverage["mean"], coverage["ci_low"], coverage["ci_high"]) == pytest.approx(
+        (expected.mean, expected.low, expected.high)
+    )
     starts = np.array(records["start"].tolist())
     assert len({tuple(s) for s in starts}) == 4
     for (_, record), start in zip(records.iterrows(), starts):
@@ -211,3 +219,25 @@ def test_random_team_starts_are_seeded_spread_and_free():
     env = cabinbench.parallel_env(layout=layout, n_agents=4, random_start=True)
     _, infos = env.reset(seed=3)
     np.testing.assert_array_equal([infos[a]["pose"] for a in env.agents], poses)
+
+
+def test_a_batched_env_on_a_suite_draws_its_layouts_as_suite_v0_does():
+    """``BatchedCoverageEnv(suite=...)`` (what ``train --suite`` trains on): env ``i`` is a Suite-v0 env
+    seeded ``seed + i``, so it plays the layouts Suite-v0 draws from that seed, a new one at each reset."""
+    from cabinbench.envs.batched import BatchedCoverageEnv
+
+    batched = BatchedCoverageEnv(num_envs=2, seed=5, suite="cabin-v1-test", max_steps=3)
+    alone = gym.make("CabinBench/Suite-v0", suite="cabin-v1-test", max_steps=3).unwrapped
+    assert batched.layout_names == ["cabin-v1-test"]
+    for index in range(2):  # the first observations: Suite-v0's from the same seed
+        np.testing.assert_array_equal(batched.observations[index], alone.reset(seed=5 + index)[0])
+    played = [[env.layout.name] for env in batched.local.envs]
+    for _ in range(4):  # every third step ends the episodes: each env draws its next layout
+        for _ in range(3):
+            batched.step(np.zeros((2, 2)))
+        for index, env in enumerate(batched.local.envs):
+            played[index].append(env.layout.name)
+    for index in range(2):
+        _, info = alone.reset(seed=5 + index)
+        expected = [info["layout"]] + [alone.reset()[1]["layout"] for _ in range(4)]
+        assert played[index] == expected and len(set(expected)) > 1

@@ -4,7 +4,8 @@
     python -m cabinbench.train --baseline ppo_gail_study --stage cleaning|tracking
     python -m cabinbench.train --baseline ppo_gail_team [--agents K] [--[no-]centralised-critic]
         [--team-weight W] [--init-policy FILE|NAME]
-        [--layout NAME ...] [--iterations N] [--num-envs N] [--steps-per-env N] [--seed S]
+        [--layout NAME ... | --suite NAME [--demo-layouts N]] [--iterations N] [--num-envs N]
+        [--steps-per-env N] [--seed S]
         [--reward paper|coverage] [--[no-]terminate-on-bound] [--max-steps N] [--algorithm JSON]
         [--min-action-std X] [--coverage-patch N] [--coverage-patch-cell M] [--[no-]random-start]
         [--threads N] [--save-interval N] [--validation-episodes N] [--export last|best]
@@ -27,19 +28,23 @@ kept as an ablation's are.
 
 Otherwise options not given take the defaults of ``cabinbench.baselines.ppo_gail.training.TrainConfig`` (the
 shipped policies' configuration; with ``--layout`` repeated, one policy trains on all of them, by default
-``a320_cell`` and ``a320_tracking_cell``). The run lives in ``--run-dir`` (default
-``runs/train/<baseline>__seed<S>``): config, demonstrations, checkpoints, ``metrics.csv``, ``curves.png`` and
-the exported ``policy.pt``. ``--resume`` continues an interrupted run from its latest checkpoint, with the
-saved config (``--iterations`` may raise the total). At the end every checkpoint's policy plays
-``--validation-episodes`` episodes (default 20) on each training layout (``validation.csv`` in the run
-directory); ``--export best`` exports the checkpoint that did best there instead of the last (see
-``TrainConfig.export`` for why the last is the default). ``--ship`` copies the exported policy to
-``<ship-dir>/<baseline>.pt`` (``--ship-dir``, default the repository's ``baselines/ppo_gail/checkpoints``: run
-it from the repository root), where ``python -m cabinbench.run --baseline <baseline>`` finds it, and the run's
-``config.json``, ``metrics.csv`` and ``validation.csv`` to ``results/training/<baseline>/``, from which
-``python -m cabinbench.leaderboard`` draws the committed training curves. ``--keep`` copies the policy,
-``config.json``, ``metrics.csv`` and ``validation.csv`` to ``results/training/<baseline>/seed<S>/``: a further
-training run of the same command, which ``results/make_results.sh`` scores into ``results/ablation.md``.
+``a320_cell`` and ``a320_tracking_cell``). With ``--suite NAME`` (e.g. ``cabin-v1-train``) it trains on the
+suite instead, through ``CabinBench/Suite-v0``: every env draws a new layout of the suite at each reset; the
+expert demonstrates on ``--demo-layouts`` of its layouts, validation plays one episode on each of
+``--validation-episodes`` of them, and the policy ships as ``<baseline>_suite`` (``ppo_gail_suite``). The run
+lives in ``--run-dir`` (default ``runs/train/<baseline>__seed<S>``): config, demonstrations, checkpoints,
+``metrics.csv``, ``curves.png`` and the exported ``policy.pt``. ``--resume`` continues an interrupted run from
+its latest checkpoint, with the saved config (``--iterations`` may raise the total). At the end every
+checkpoint's policy plays ``--validation-episodes`` episodes (default 20) on each training layout
+(``validation.csv`` in the run directory); ``--export best`` exports the checkpoint that did best there
+instead of the last (see ``TrainConfig.export`` for why the last is the default). ``--ship`` copies the
+exported policy to ``<ship-dir>/<baseline>.pt`` (``--ship-dir``, default the repository's
+``baselines/ppo_gail/checkpoints``: run it from the repository root), where ``python -m cabinbench.run
+--baseline <baseline>`` finds it, and the run's ``config.json``, ``metrics.csv`` and ``validation.csv`` to
+``results/training/<baseline>/``, from which ``python -m cabinbench.leaderboard`` draws the committed training
+curves. ``--keep`` copies the policy, ``config.json``, ``metrics.csv`` and ``validation.csv`` to
+``results/training/<baseline>/seed<S>/``: a further training run of the same command, which
+``results/make_results.sh`` scores into ``results/ablation.md``.
 
 ``--seeds S ...`` trains one run per seed at once, each exactly as ``--seed S`` would, in its own default run
 directory (one CPU each): in local processes, or with ``--executor ray`` as Ray tasks on the cluster at
@@ -92,6 +97,14 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         dest="layouts",
         metavar="NAME",
         help="training layout (repeat for several; default a320_cell and a320_tracking_cell)",
+    )
+    parser.add_argument(
+        "--suite",
+        metavar="NAME",
+        help="train on a suite (a new layout of it at every reset) instead of --layout",
+    )
+    parser.add_argument(
+        "--demo-layouts", type=int, metavar="N", help="with --suite: suite layouts the expert demonstrates"
     )
     parser.add_argument("--iterations", type=int, help="total training iterations")
     parser.add_argument("--num-envs", type=int, help="parallel envs")
@@ -218,6 +231,8 @@ def build_config(args: argparse.Namespace):
         name: getattr(args, name)
         for name in (
             "layouts",
+            "suite",
+            "demo_layouts",
             "iterations",
             "num_envs",
             "num_steps_per_env",
@@ -264,8 +279,11 @@ def build_config(args: argparse.Namespace):
 
 
 def policy_name(args: argparse.Namespace) -> str:
-    """What a run's policy ships as: the baseline, or for the study's networks ``ppo_gail_study_<stage>``."""
-    return f"{STUDY_NAME}_{args.stage}" if args.baseline == STUDY_NAME else args.baseline
+    """What a run's policy ships as: the baseline, ``<baseline>_suite`` when trained on a suite, or for the
+    study's networks ``ppo_gail_study_<stage>``."""
+    if args.baseline == STUDY_NAME:
+        return f"{STUDY_NAME}_{args.stage}"
+    return f"{args.baseline}_suite" if args.suite else args.baseline
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -304,11 +322,16 @@ def train_one(args: argparse.Namespace) -> int:
     from cabinbench.layout import LayoutError, available_layouts, load_layout
 
     try:
+        if args.suite and (args.layouts or args.baseline == STUDY_NAME):
+            raise ValueError(f"--suite trains {', '.join(ABLATION_NAMES)} on a suite instead of --layout")
         config, run_dir = build_config(args)
         for layout in config.layouts:
             load_layout(layout)
     except LayoutError as error:
-        print(f"error: {error}\nvalid layouts: {', '.join(available_layouts())}", file=sys.stderr)
+        valid = (
+            "" if args.suite else f"\nvalid layouts: {', '.join(available_layouts())}"
+        )  # a suite's names its own
+        print(f"error: {error}{valid}", file=sys.stderr)
         return EXIT_USAGE
     except (ValueError, TypeError) as error:
         print(f"error: {error}", file=sys.stderr)
@@ -316,7 +339,7 @@ def train_one(args: argparse.Namespace) -> int:
 
     name = policy_name(args)
     print(
-        f"{'exporting' if args.export_latest else 'training'} {name} on {', '.join(config.layouts)}: "
+        f"{'exporting' if args.export_latest else 'training'} {name} on {config.trained_on}: "
         f"{config.iterations} iterations x {config.num_envs} envs x {config.num_steps_per_env} steps; "
         f"run dir {run_dir}",
         file=sys.stderr,

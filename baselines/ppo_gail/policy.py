@@ -271,7 +271,7 @@ class LearnedPolicy(Baseline):
         settings = {"checkpoint": str(checkpoint)} if checkpoint is not None else {}
         settings["stochastic"] = bool(stochastic)
         super().__init__(**settings)
-        self.path = Path(checkpoint) if checkpoint is not None else CHECKPOINT_DIR / f"{self.ablation}.pt"
+        self.path = Path(checkpoint) if checkpoint is not None else CHECKPOINT_DIR / f"{self.name}.pt"
         self.stochastic = bool(stochastic)
         self.policy = load_policy(self.path)
         if self.policy["ablation"] != self.ablation:
@@ -314,6 +314,23 @@ class PPOGail(LearnedPolicy):
     differences)."""
 
     name = ablation = "ppo_gail"
+
+
+class PPOGailSuite(PPOGail):
+    """Our ppo_gail trained on the suite ``cabin-v1-train`` through ``CabinBench/Suite-v0`` (a new layout at
+    every reset) instead of on the seed's two cells: ``python -m cabinbench.train --baseline ppo_gail
+    --suite cabin-v1-train`` (``results/train_suite_policies.sh``). Its policy files record the suite they
+    trained on."""
+
+    name = "ppo_gail_suite"
+
+    def __init__(self, checkpoint: str | os.PathLike | None = None, stochastic: bool = True) -> None:
+        super().__init__(checkpoint, stochastic)
+        if not self.policy.get("env_config", {}).get("suite"):
+            raise PolicyFileError(
+                f"{self.path}: trained on layouts {self.policy.get('env_config', {}).get('layouts')}, "
+                "not on a suite; run it as --baseline ppo_gail"
+            )
 
 
 class PPO(LearnedPolicy):

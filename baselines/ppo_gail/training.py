@@ -84,8 +84,14 @@ class TrainConfig:
 
     ablation: str = "ppo_gail"
     """One of ``ABLATIONS``: "ppo_gail", "ppo", "ppo_icm", "ppo_gail_only"."""
-    layouts: list[str] = field(default_factory=lambda: ["a320_cell", "a320_tracking_cell"])
-    """Training layouts, shared round-robin by the parallel envs: the seed's cleaning and tracking cells."""
+    layouts: list[str] = field(default_factory=list)
+    """Training layouts, shared round-robin by the parallel envs; empty: the seed's cleaning and tracking
+    cells (``CELL_LAYOUTS``), or none with ``suite``."""
+    suite: str | None = None
+    """Train on a suite (``cabinbench.suites``) instead of ``layouts``: every parallel env is a
+    ``CabinBench/Suite-v0`` env that draws a new layout of the suite at each reset from its seeded
+    generator, so the policy trains on the family, not on one map. The config records the suite's version
+    too."""
     num_envs: int = 64
     """Parallel envs."""
     num_steps_per_env: int = 64
@@ -149,13 +155,18 @@ class TrainConfig:
     noisy demonstrations made the policies worse (docs/experiments.md)."""
     demo_max_steps: int | None = None
     """Step limit of the demonstration episodes (None: the training ``max_steps``)."""
+    demo_layouts: int = 8
+    """With ``suite``: how many of its layouts (a sample drawn by ``seed``) the expert demonstrates, each
+    ``demo_episodes`` times from the layout's start."""
     demonstrations: list[str] = field(default_factory=list)
     """Existing demonstration ``.npz`` files to use instead of recording new ones."""
     save_interval: int = 50
     """Write a checkpoint every this many iterations (and after the last one)."""
     validation_episodes: int = 20
     """Episodes per training layout on which every checkpoint plays at the end of training, with seeds from
-    ``VALIDATION_SEED`` (``validation.csv``, panel (g) of ``curves.png``; 0: none)."""
+    ``VALIDATION_SEED`` (``validation.csv``, panel (g) of ``curves.png``; 0: none). With ``suite``: episodes
+    in all, one on each layout of a sample of the suite drawn by ``VALIDATION_SEED``, from a random start (the
+    suites' protocol)."""
     export: str = "last"
     """Which checkpoint ``policy.pt`` holds: "last", or "best" on validation (``validation_score``). The
     results keep "last"; "best" would reorder the ablations (docs/experiments.md)."""
@@ -166,8 +177,20 @@ class TrainConfig:
     def __post_init__(self) -> None:
         if self.ablation not in ABLATIONS:
             raise ValueError(f"unknown ablation {self.ablation!r}; choose one of {', '.join(ABLATIONS)}")
-        if not self.layouts:
-            raise ValueError("layouts must name at least one layout")
+        if self.suite:
+            from cabinbench.suites import get_suite
+
+            size = len(get_suite(self.suite))  # an unknown suite: a LayoutError naming the valid ones
+            if self.layouts:
+                raise ValueError(f"train on layouts {self.layouts} or on suite {self.suite}, not both")
+            if not 1 <= self.demo_layouts <= size:
+                raise ValueError(
+                    f"demo_layouts must be 1 to {size} for suite {self.suite}, got {self.demo_layouts}"
+                )
+            if self.validation_episodes > size:
+                raise ValueError(f"validation_episodes must be at most {size} for suite {self.suite}")
+        elif not self.layouts:
+            self.layouts = list(CELL_LAYOUTS)
         for name in (
             "num_envs",
             "num_steps_per_env",
@@ -230,28 +253,78 @@ class TrainConfig:
         """The training envs as an rsl-rl ``VecEnv``, their observation config and observation layout."""
         from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
 
-        batched = BatchedCoverageEnv(self.layouts, self.num_envs, seed=self.seed, **self.env_kwargs)
+        batched = BatchedCoverageEnv(
+            self.layouts, self.num_envs, seed=self.seed, suite=self.suite, **self.env_kwargs
+        )
         example = batched.example_env
         return RslRlVecEnv(batched), example.observation_config, example.observation_layout
 
     def initialise(self, runner) -> None:
         """Set the weights a new run starts from; here rsl-rl's random ones are kept."""
 
+    @property
+    def suite_version(self) -> int | None:
+        from cabinbench.suites import get_suite
+
+        return get_suite(self.suite).version if self.suite else None
+
+    @property
+    def trained_on(self) -> str:
+        """What the policy trained on, in words: ``cabin-v1-train (v1)`` or ``a320_cell +
+        a320_tracking_cell``."""
+        return f"{self.suite} (v{self.suite_version})" if self.suite else " + ".join(self.layouts)
+
+    @property
+    def demo_layout_names(self) -> list[str]:
+        """The layouts the expert demonstrates: the training layouts, or a sample of the suite drawn by
+        ``seed``."""
+        return suite_sample(self.suite, self.demo_layouts, self.seed) if self.suite else list(self.layouts)
+
+    @property
+    def validation_layouts(self) -> list[str]:
+        """The layouts every checkpoint is validated on: the training layouts (``validation_episodes`` each),
+        or a sample of the suite drawn by ``VALIDATION_SEED`` (one episode each)."""
+        if self.suite:
+            return suite_sample(self.suite, self.validation_episodes, VALIDATION_SEED)
+        return list(dict.fromkeys(self.layouts))
+
     def to_dict(self) -> dict:
-        """Every field, and the ablation's ``REWARD_SIGNALS`` (``use_curiosity``, ``use_gail``): the
-        leaderboard reads those from ``config.json`` without importing this baseline
-        (``cabinbench.training_records``)."""
-        return {**dataclasses.asdict(self), **ABLATIONS[self.ablation]}
+        """Every field, the suite's version (``suite_version``, None without a suite) and the ablation's
+        ``REWARD_SIGNALS`` (``use_curiosity``, ``use_gail``): the leaderboard reads those from ``config.json``
+        without importing this baseline (``cabinbench.training_records``)."""
+        values = {**dataclasses.asdict(self), "suite_version": self.suite_version, **ABLATIONS[self.ablation]}
+        if not self.suite:  # a run on layouts: its config.json reads as it did before suites existed
+            for name in SUITE_FIELDS:
+                del values[name]
+        return values
 
     @classmethod
     def from_dict(cls, values: dict) -> TrainConfig:
         """The config of a ``config.json`` (the inverse of ``to_dict``); unknown fields are an error."""
-        values = {key: value for key, value in values.items() if key not in REWARD_SIGNALS}
+        values = {
+            key: value for key, value in values.items() if key not in (*REWARD_SIGNALS, "suite_version")
+        }
         known = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(values) - known)
         if unknown:
             raise ValueError(f"unknown TrainConfig field(s) {unknown}; known: {sorted(known)}")
         return cls(**values)
+
+
+SUITE_FIELDS = ("suite", "suite_version", "demo_layouts")
+"""What ``to_dict`` records of a run on a suite only."""
+CELL_LAYOUTS = ("a320_cell", "a320_tracking_cell")
+"""The default training layouts: the seed's cleaning and tracking cells."""
+
+
+def suite_sample(suite: str, count: int, seed: int) -> list[str]:
+    """``count`` different layouts of ``suite``, drawn by ``seed``, in suite order."""
+    from cabinbench.suites import get_suite
+
+    names = get_suite(suite).layout_names
+    return [
+        names[index] for index in sorted(np.random.default_rng(seed).choice(len(names), count, replace=False))
+    ]
 
 
 LEARNING_RATE_SCHEDULES = ("fixed", "linear")
@@ -511,7 +584,7 @@ def train(
         plot_curves(
             rows,
             run_dir / CURVES_FILE,
-            title=f"{config.policy_name} on {' + '.join(config.layouts)}",
+            title=f"{config.policy_name} on {config.trained_on}",
             validation=validation,
         )
     if interrupted:
@@ -540,7 +613,12 @@ def export_run_policy(runner, config: TrainConfig, obs_config: dict, path: Path,
         path,
         ablation=config.policy_name,
         observation_config=obs_config,
-        env_config={"layouts": config.layouts, **config.env_kwargs},
+        env_config={
+            "layouts": config.layouts,
+            "suite": config.suite,
+            "suite_version": config.suite_version,
+            **config.env_kwargs,
+        },
         training=training,
     )
 
@@ -650,8 +728,8 @@ def prepare_run_dir(config: TrainConfig, run_dir: Path, resume: bool) -> Path | 
 
 
 def expert_demonstrations(config: TrainConfig, run_dir: Path) -> list[str]:
-    """The given ``.npz`` files, or boustrophedon demonstrations of every training layout recorded into
-    ``run_dir/demos`` (kept, so a resumed run imitates the same data)."""
+    """The given ``.npz`` files, or boustrophedon demonstrations of every layout of ``demo_layout_names``
+    recorded into ``run_dir/demos`` (kept, so a resumed run imitates the same data)."""
     from cabinbench.baselines.boustrophedon import record_demonstrations
 
     if config.demonstrations:
@@ -659,8 +737,8 @@ def expert_demonstrations(config: TrainConfig, run_dir: Path) -> list[str]:
     folder = run_dir / DEMO_DIR
     folder.mkdir(exist_ok=True)
     paths = []
-    for layout in dict.fromkeys(config.layouts):
-        path = folder / f"{Path(layout).stem}.npz"
+    for layout in dict.fromkeys(config.demo_layout_names):
+        path = folder / f"{Path(layout).stem}.npz"  # a suite layout's: its number
         if not path.exists():
             temporary = folder / f"{Path(layout).stem}.tmp.npz"
             env_kwargs = {
@@ -688,6 +766,8 @@ def training_summary(rows: list[dict], config: TrainConfig, train_time: float, w
     summary: dict = {
         "ablation": config.ablation,
         "layouts": list(config.layouts),
+        "suite": config.suite,
+        "suite_version": config.suite_version,
         "iterations": int(rows[-1]["iteration"]) if rows else 0,
         "iterations_planned": config.iterations,
         "timesteps": int(rows[-1]["timesteps"]) if rows else 0,
@@ -747,17 +827,29 @@ def read_validation(run_dir: Path, config: TrainConfig) -> list[dict]:
 def validate_checkpoints(runner, config: TrainConfig, run_dir: Path, export) -> None:
     """Play ``config.validation_episodes`` episodes on each training layout (sequential protocol, the layout's
     own start, sampled actions: as the leaderboard plays them) with the policy of every checkpoint up to
-    ``config.iterations``. Each checkpoint's policy file is exported (by ``export(path)``) to
-    ``validation/policy_<iteration>.pt``, and its rows are appended to ``validation.csv`` as soon as they are
-    measured: a resumed run validates only the checkpoints not done yet."""
+    ``config.iterations``; with a suite, one episode on each of its ``validation_layouts`` from a random start
+    (as ``run --suite`` plays them), one row named after the suite. Each checkpoint's policy file is exported
+    (by ``export(path)``) to ``validation/policy_<iteration>.pt``, and its rows are appended to
+    ``validation.csv`` as soon as they are measured: a resumed run validates only the checkpoints not done
+    yet."""
     from cabinbench.episodes import run_episode
     from cabinbench.layout import load_layout
 
     path = run_dir / VALIDATION_FILE
     rows = read_metrics(path) if path.exists() else []
     done = {int(row["iteration"]) for row in rows}
-    layouts = {name: load_layout(name) for name in dict.fromkeys(config.layouts)}
     env_kwargs = {"max_steps": config.max_steps} if config.max_steps else {}
+    if config.suite:  # one row: one episode on each layout of the sample, from a random start
+        sample = [load_layout(name) for name in config.validation_layouts]
+        episodes = {config.suite: [(layout, VALIDATION_SEED + index) for index, layout in enumerate(sample)]}
+        env_kwargs["random_start"] = True
+    else:  # a row per training layout, validation_episodes episodes each
+        episodes = {}
+        for name in config.validation_layouts:
+            layout = load_layout(name)
+            episodes[name] = [
+                (layout, VALIDATION_SEED + index) for index in range(config.validation_episodes)
+            ]
     checkpoints = sorted((run_dir / CHECKPOINT_DIR).glob("model_*.pt"))
     with open(path, "a", newline="") as file:
         writer = csv.DictWriter(file, VALIDATION_COLUMNS)
@@ -770,17 +862,17 @@ def validate_checkpoints(runner, config: TrainConfig, run_dir: Path, export) -> 
             load_checkpoint(runner, checkpoint)
             policy = export(run_dir / VALIDATION_DIR / f"policy_{iteration:06d}.pt")
             measured = []
-            for name, layout in layouts.items():
+            for name, played in episodes.items():
                 records = [
                     run_episode(
                         config.policy_name,
                         layout,
-                        VALIDATION_SEED + episode,
+                        seed,
                         env_kwargs=env_kwargs,
                         config={"checkpoint": str(policy)},
                         **config.episode_options,
                     )[0]
-                    for episode in range(config.validation_episodes)
+                    for layout, seed in played
                 ]
                 measured.append(
                     {

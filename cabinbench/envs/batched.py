@@ -21,6 +21,7 @@ from tensordict import TensorDict
 
 from ..world import TIME_STEP
 from .coverage_env import CoverageEnv, checked_action
+from .suite_env import SuiteEnv
 
 _CONTEXT = multiprocessing.get_context("spawn")  # no fork of torch's threads
 SPIN_SECONDS = 0.002
@@ -84,17 +85,30 @@ class BatchArrays:
 
 class EnvShard:
     """A run of consecutive envs (global indices ``first`` ...) stepped in a loop, on their rows
-    of ``batch``."""
+    of ``batch``: ``CoverageEnv``s on ``layouts`` round-robin, or with ``suite`` ``SuiteEnv``s,
+    each drawing a new layout of the suite at every reset from its seeded generator."""
 
     def __init__(
-        self, layouts: list, first: int, count: int, seed: int, env_kwargs: dict, batch: BatchArrays
+        self,
+        layouts: list,
+        first: int,
+        count: int,
+        seed: int,
+        env_kwargs: dict,
+        batch: BatchArrays,
+        suite: str | None = None,
     ):
         self.first = first
         rows = slice(first, first + count)
         self.actions = batch.actions[rows, None]  # (count, 1, 2): each env's (K, 2) actions, K = 1
         self.observations, self.rewards = batch.observations[rows], batch.rewards[rows]
         self.terminated, self.truncated = batch.terminated[rows], batch.truncated[rows]
-        self.envs = [CoverageEnv(layouts[(first + k) % len(layouts)], **env_kwargs) for k in range(count)]
+        self.envs = [
+            SuiteEnv(suite, **env_kwargs)
+            if suite
+            else CoverageEnv(layouts[(first + k) % len(layouts)], **env_kwargs)
+            for k in range(count)
+        ]
         for k, env in enumerate(self.envs):
             self.observations[k] = env.reset(seed=seed + first + k)[0]
 
@@ -126,7 +140,10 @@ def _serve_shard(connection, *shard_arguments) -> None:
 class BatchedCoverageEnv:
     """Arguments as :class:`~.coverage_env.CoverageEnv` (minus rendering), plus ``num_envs``,
     ``seed`` and ``num_workers``; ``layout`` may also be a list, env ``i`` then running
-    ``layout[i % len(layout)]`` (e.g. the cleaning and the tracking cell in one batch).
+    ``layout[i % len(layout)]`` (e.g. the cleaning and the tracking cell in one batch). With
+    ``suite`` (a suite name) every env is a :class:`~.suite_env.SuiteEnv` instead (``layout`` is
+    ignored): each reset draws a layout of the suite, as ``CabinBench/Suite-v0`` does, and the step
+    limit is each drawn layout's own.
     ``step`` returns (observations [N, D] float32, rewards [N], terminated [N] bool, truncated
     [N] bool, finished) where ``finished`` lists (env index, episode record) for every env whose
     episode ended on this step (those envs are already reset).
@@ -143,15 +160,28 @@ class BatchedCoverageEnv:
     (:mod:`cabinbench.observation`)."""
 
     def __init__(
-        self, layout="a320_cell", num_envs: int = 64, seed: int = 0, num_workers: int = 1, **env_kwargs
+        self,
+        layout="a320_cell",
+        num_envs: int = 64,
+        seed: int = 0,
+        num_workers: int = 1,
+        suite: str | None = None,
+        **env_kwargs,
     ):
-        requested = list(layout) if isinstance(layout, (list, tuple)) else [layout]
-        examples = [CoverageEnv(name, **env_kwargs) for name in requested]  # spaces and settings, for callers
+        if suite:
+            examples = [SuiteEnv(suite, **env_kwargs)]  # spaces and settings, for callers
+            self.layout_names = [suite]
+            # the longest step limit an env may draw: from the manifest, without generating the suite
+            longest = max(entry["max_steps"] for entry in examples[0].suite.manifest().values())
+            self.max_steps_per_env = [env_kwargs.get("max_steps") or longest] * num_envs
+        else:
+            requested = list(layout) if isinstance(layout, (list, tuple)) else [layout]
+            examples = [CoverageEnv(name, **env_kwargs) for name in requested]
+            self.layout_names = sorted({example.layout.name for example in examples})
+            self.max_steps_per_env = [examples[index % len(examples)].max_steps for index in range(num_envs)]
         self.example_env = examples[0]
         self.num_envs = num_envs
         self.layout = self.example_env.layout
-        self.layout_names = sorted({example.layout.name for example in examples})
-        self.max_steps_per_env = [examples[index % len(examples)].max_steps for index in range(num_envs)]
         self.observation_size = self.example_env.observation_space.shape[0]
         self.observation_layout = self.example_env.observation_layout  # part name -> slice of a row
         layouts = [
@@ -161,7 +191,7 @@ class BatchedCoverageEnv:
         self.batch = BatchArrays(num_envs, self.observation_size, shared=len(bounds) > 2)
         self.observations = self.batch.observations
         shards = [
-            (layouts, int(first), int(last - first), seed, env_kwargs, self.batch)
+            (layouts, int(first), int(last - first), seed, env_kwargs, self.batch, suite)
             for first, last in zip(bounds, bounds[1:])
         ]
         self.workers = []
