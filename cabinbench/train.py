@@ -8,11 +8,11 @@ do are printed), or a trainer's own usage error; 130 interrupted (finished check
 
 from __future__ import annotations
 
-import argparse
 import importlib
 import sys
 
 from .agents import BaselineError, baseline_class, registered_baselines
+from .cli import ArgumentParser
 
 EXIT_USAGE = 2
 
@@ -31,7 +31,7 @@ def trainable_baselines() -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="python -m cabinbench.train",
         add_help=False,
         description="Train a learned baseline with the trainer it declares.",

@@ -162,6 +162,10 @@ CASES = {
         ["'random_bounce' does not learn", "trainable baselines: ppo"],
     ),
     "train: unknown option": (["train", "--baseline", "ppo", "--bogus"], ["unrecognized arguments: --bogus"]),
+    "train: unknown layout": (
+        ["train", "--baseline", "ppo", "--layout", "nope", "--iterations", "1"],
+        ["unknown layout", "a320_cell"],
+    ),
     "train: --seed and --seeds": (
         ["train", "--baseline", "ppo", "--seed", "1", "--seeds", "0", "1"],
         ["--seed", "give the seeds with --seeds alone"],
@@ -175,9 +179,6 @@ CASES = {
         ["--executor and --address run the seeds of --seeds"],
     ),
 }
-# cabinbench/train.py hands its arguments to the trainer a baseline declares; this one is that
-# trainer's (baselines/ppo_gail/cli.py), whose plain argparse prints its usage block first.
-NOT_ONE_LINE_YET = {"train: unknown option": "the trainer's argparse prints its usage block before the error"}
 
 
 def write_inputs(folder: Path) -> None:
@@ -247,15 +248,7 @@ def outcomes(tmp_path_factory):
     return results, before, after, folder
 
 
-@pytest.mark.parametrize(
-    "name",
-    [
-        pytest.param(name, marks=pytest.mark.xfail(reason=NOT_ONE_LINE_YET[name], strict=True))
-        if name in NOT_ONE_LINE_YET
-        else name
-        for name in CASES
-    ],
-)
+@pytest.mark.parametrize("name", list(CASES))
 def test_user_error_is_one_line_exit_2(outcomes, name):
     results, *_ = outcomes
     status, _, stderr = results[name]

@@ -66,7 +66,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from cabinbench.cli import UsageError
+from cabinbench.cli import ArgumentParser, UsageError
 from cabinbench.executors import EXECUTOR_NAMES, JobFailure, executors
 from cabinbench.rewards import REWARD_PRESETS
 
@@ -81,7 +81,7 @@ SHIP_DIR = Path("baselines/ppo_gail/checkpoints")  # the repository's, never the
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="python -m cabinbench.train",
         description="Train PPO + curiosity + GAIL (or an ablation) with rsl-rl.",
     )
@@ -319,7 +319,7 @@ def train_one(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
     from cabinbench.baselines.ppo_gail.training import export_latest, train
-    from cabinbench.layout import LayoutError, available_layouts, load_layout
+    from cabinbench.layout import LayoutError, load_layout
 
     try:
         if args.suite and (args.layouts or args.baseline == STUDY_NAME):
@@ -328,10 +328,7 @@ def train_one(args: argparse.Namespace) -> int:
         for layout in config.layouts:
             load_layout(layout)
     except LayoutError as error:
-        valid = (
-            "" if args.suite else f"\nvalid layouts: {', '.join(available_layouts())}"
-        )  # a suite's names its own
-        print(f"error: {error}{valid}", file=sys.stderr)
+        print(f"error: {error}", file=sys.stderr)  # it names the valid layouts
         return EXIT_USAGE
     except (ValueError, TypeError) as error:
         print(f"error: {error}", file=sys.stderr)
