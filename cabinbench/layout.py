@@ -178,14 +178,15 @@ class Layout:
         tile_of = tiles[:, 0] * (tiles[:, 1].max() + 1) + tiles[:, 1]
         order = np.argsort(tile_of, kind="stable")
         bounds = np.flatnonzero(np.diff(tile_of[order])) + 1
+        groups = np.split(order, bounds)
+        lows = np.array([points[members].min(axis=0) for members in groups])
+        highs = np.array([points[members].max(axis=0) for members in groups])
+        radii = np.hypot(*(highs - lows).T) / 2
+        to_centres = _point_segment_distances((lows + highs) / 2, starts, ends)  # every tile's at once
         nearest = np.empty(len(points))
-        for members in np.split(order, bounds):
-            tile = points[members]
-            centre = (tile.min(axis=0) + tile.max(axis=0)) / 2
-            radius = float(np.hypot(*(tile.max(axis=0) - tile.min(axis=0)))) / 2
-            to_centre = _point_segment_distances(centre[None, :], starts, ends)[0]
+        for members, to_centre, radius in zip(groups, to_centres, radii):
             near = to_centre <= to_centre.min() + 2 * radius + 1e-9
-            nearest[members] = _point_segment_distances(tile, starts[near], ends[near]).min(axis=1)
+            nearest[members] = _point_segment_distances(points[members], starts[near], ends[near]).min(axis=1)
         return nearest
 
     @cached_property
@@ -544,15 +545,13 @@ def _build_passages(layout: Layout) -> list[Passage]:
             continue
         axis, position, lo, hi, direction = edge
         samples = np.arange(lo + RESOLUTION / 2, hi, RESOLUTION / 2)
-        clear = np.array([_clearance_at(layout, axis, position, s) >= layout.robot.radius for s in samples])
+        clear = _clearance_along(layout, axis, position, samples) >= layout.robot.radius
         bounds, exits = [], []
         for run_lo, run_hi in _runs(clear):
             # extend the run to the walls on both sides so the bound closes the whole opening
             a, b = samples[run_lo], samples[run_hi - 1]
-            while a - RESOLUTION / 2 > lo and _clearance_at(layout, axis, position, a - RESOLUTION / 2) > 0:
-                a -= RESOLUTION / 2
-            while b + RESOLUTION / 2 < hi and _clearance_at(layout, axis, position, b + RESOLUTION / 2) > 0:
-                b += RESOLUTION / 2
+            a = _extend_to_wall(layout, axis, position, a, -RESOLUTION / 2, lo)
+            b = _extend_to_wall(layout, axis, position, b, RESOLUTION / 2, hi)
             a, b = max(lo, a - RESOLUTION), min(hi, b + RESOLUTION)  # overlap the walls: no sub-pixel slit
             middle = (samples[run_lo] + samples[run_hi - 1]) / 2
             if axis == 0:  # vertical shared edge x = position
@@ -585,12 +584,33 @@ def _shared_edge(a, b):
     return None
 
 
-def _clearance_at(layout: Layout, axis: int, position: float, along: float) -> float:
-    """Clearance where the shared edge crosses ``along``: the smaller of the pixels either side,
-    since an obstacle that ends exactly on the edge blocks it as much as one that straddles it."""
-    sides = (position - RESOLUTION / 2, position + RESOLUTION / 2)
-    points = [(side, along) if axis == 0 else (along, side) for side in sides]
-    return float(min(layout.clearance[layout.to_pixel(x, y)] for x, y in points))
+def _extend_to_wall(
+    layout: Layout, axis: int, position: float, along: float, step: float, limit: float
+) -> float:
+    """``along`` moved step by step while the next point stays strictly short of ``limit`` and off the
+    walls (the steps are taken one at a time, so the floats are those of a plain loop)."""
+    reached = [along]
+    while (reached[-1] + step > limit) if step < 0 else (reached[-1] + step < limit):
+        reached.append(reached[-1] + step)
+    open_ = _clearance_along(layout, axis, position, np.array(reached[1:])) > 0
+    blocked = np.flatnonzero(~open_)
+    return reached[int(blocked[0]) if len(blocked) else len(reached) - 1]
+
+
+def _clearance_along(layout: Layout, axis: int, position: float, along):
+    """Clearance where the shared edge crosses ``along`` (a number or an array of them): the smaller
+    of the pixels either side, since an obstacle that ends exactly on the edge blocks it as much as
+    one that straddles it."""
+    along = np.asarray(along, dtype=float)
+    rows, cols = layout.raster_shape
+    x0, y0 = layout.origin
+    sides = []
+    for side in (position - RESOLUTION / 2, position + RESOLUTION / 2):
+        x, y = (side, along) if axis == 0 else (along, side)
+        row = np.clip(np.floor((y - y0) / RESOLUTION).astype(np.int64), 0, rows - 1)
+        col = np.clip(np.floor((x - x0) / RESOLUTION).astype(np.int64), 0, cols - 1)
+        sides.append(layout.clearance[row, col])
+    return np.minimum(*sides)
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
