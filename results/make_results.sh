@@ -77,20 +77,25 @@ if [ -f baselines/ppo_gail/checkpoints/ppo_gail_team.pt ]; then
       for baseline in ppo_gail_team ppo_gail; do
         runs "0 100" 5 results/runs --agents "$agents" --baseline "$baseline" --layout "$layout" --protocol sequential
       done
+      for policy in results/training/ppo_gail/seed*/policy.pt; do  # every training seed of the per-robot policy
+        [ -f "$policy" ] || continue
+        runs "0 100" 5 results/ablation_runs --agents "$agents" --baseline ppo_gail --layout "$layout" \
+          --protocol sequential --config "{\"checkpoint\": \"$policy\"}"
+      done
     done
   done
 fi
 
 # The suites (benchmark protocol v1): one episode on every layout of cabin-v1-test, then of cabin-v1-ood, each
-# from a start pose drawn from the episode's seed; the classic baselines K = 1 first, then the shipped policy.
-# Teams start from the layout's team start poses (--start fixed): the team planner plans from those.
+# from start poses drawn from the episode's seed (a team's robots too: each drives from where it stands to the
+# start of its share); the classic baselines first, then the shipped policy.
 suite_run() { printf -v arguments '%q ' "$@"; echo "python -m cabinbench.run --seed 0 --out results/runs $arguments> /dev/null" >> "$queue"; }
 for suite in cabin-v1-test cabin-v1-ood; do
   if $classic; then
     suite_run --suite "$suite" --baseline boustrophedon
     suite_run --suite "$suite" --baseline random_bounce
-    suite_run --suite "$suite" --baseline boustrophedon --agents 2 --start fixed
-    suite_run --suite "$suite" --baseline boustrophedon --agents 4 --start fixed
+    suite_run --suite "$suite" --baseline boustrophedon --agents 2
+    suite_run --suite "$suite" --baseline boustrophedon --agents 4
   fi
   if [ -f baselines/ppo_gail/checkpoints/ppo_gail.pt ]; then
     suite_run --suite "$suite" --baseline ppo_gail

@@ -43,7 +43,8 @@ def test_readme_states_the_spread_of_the_main_commands_training_seeds():
     """The README's main command runs the shipped ppo_gail policy on full_cabin; the coverage it
     quotes for each training seed, and over all seeds, is the committed leaderboard's."""
     board = pd.read_csv(ROOT / "results" / "leaderboard.csv")
-    rows = board[(board["layout"] == "full_cabin") & (board["baseline"] == "ppo_gail")].set_index("policy")
+    main_command = (board["layout"] == "full_cabin") & (board["baseline"] == "ppo_gail") & (board["n_agents"] == 1)
+    rows = board[main_command].set_index("policy")
     assert len(rows) == 4  # three training seeds and the row over all of them
     coverage = rows["coverage_mean"]
     assert coverage["seed0 (shipped)"] == coverage.max()  # "the best of three training seeds"
@@ -65,5 +66,7 @@ def test_no_committed_row_has_an_interval_over_identical_episodes_and_every_seed
     table = (ROOT / "results" / "leaderboard.md").read_text(encoding="utf-8")
     assert "deterministic: 20 identical episodes" in table and "1.00 ± 0.00" not in table
     learned = board[board["policy"].notna()]
-    for (layout, baseline), rows in learned.groupby(["layout", "baseline"]):
-        assert len(rows) >= 4 and "all seeds" in set(rows["policy"]), (layout, baseline)  # >= 3 seeds
+    for (layout, baseline, agents), rows in learned.groupby(["layout", "baseline", "n_agents"]):
+        kept = sorted(path.name for path in (ROOT / "results" / "training" / baseline).glob("seed*"))
+        every_seed = {"seed0 (shipped)", *kept} | ({"all seeds"} if kept else set())
+        assert set(rows["policy"]) == every_seed, (layout, baseline, agents)
