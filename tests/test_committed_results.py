@@ -43,7 +43,9 @@ def test_readme_states_the_spread_of_the_main_commands_training_seeds():
     """The README's main command runs the shipped ppo_gail policy on full_cabin; the coverage it
     quotes for each training seed, and over all seeds, is the committed leaderboard's."""
     board = pd.read_csv(ROOT / "results" / "leaderboard.csv")
-    main_command = (board["layout"] == "full_cabin") & (board["baseline"] == "ppo_gail") & (board["n_agents"] == 1)
+    main_command = (
+        (board["layout"] == "full_cabin") & (board["baseline"] == "ppo_gail") & (board["n_agents"] == 1)
+    )
     rows = board[main_command].set_index("policy")
     assert len(rows) == 4  # three training seeds and the row over all of them
     coverage = rows["coverage_mean"]
