@@ -162,6 +162,10 @@ CASES = {
         ["'random_bounce' does not learn", "trainable baselines: ppo"],
     ),
     "train: unknown option": (["train", "--baseline", "ppo", "--bogus"], ["unrecognized arguments: --bogus"]),
+    "train: --suite for the team": (
+        ["train", "--baseline", "ppo_gail_team", "--suite", "cabin-v1-train"],
+        ["--suite trains ppo_gail, ppo, ppo_icm, ppo_gail_only on a suite"],
+    ),
     "train: unknown layout": (
         ["train", "--baseline", "ppo", "--layout", "nope", "--iterations", "1"],
         ["unknown layout", "a320_cell"],

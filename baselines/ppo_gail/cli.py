@@ -322,7 +322,7 @@ def train_one(args: argparse.Namespace) -> int:
     from cabinbench.layout import LayoutError, load_layout
 
     try:
-        if args.suite and (args.layouts or args.baseline == STUDY_NAME):
+        if args.suite and (args.layouts or args.baseline not in ABLATION_NAMES):
             raise ValueError(f"--suite trains {', '.join(ABLATION_NAMES)} on a suite instead of --layout")
         config, run_dir = build_config(args)
         for layout in config.layouts:
