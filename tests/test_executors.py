@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 import ray
 
-from tests.test_run_and_leaderboard import SHORT, VARYING, lines, stable
+from tests.test_run_and_leaderboard import SHORT, VARYING, ctrl_c_as_in_a_terminal, lines, stable
 
 TIMING_COLUMNS = ("train_time", "iteration_time")  # the only metrics.csv columns that depend on the clock
 TINY_TRAINING = [
@@ -178,6 +178,7 @@ def test_an_interrupted_sweep_resumes_the_unfinished_seeds_from_their_checkpoint
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,
+        preexec_fn=ctrl_c_as_in_a_terminal,
     )
     runs = [tmp_path / f"runs/train/ppo__seed{seed}" for seed in (0, 1)]
     deadline = time.monotonic() + 300

@@ -350,6 +350,12 @@ def wait_until(condition, seconds: float) -> bool:
 LONG = ["--baseline", "random_bounce", "--layout", "a320_cell", "--max-steps", "1500", "--episodes", "50"]
 
 
+def ctrl_c_as_in_a_terminal() -> None:
+    """``preexec_fn`` for a child that must see Ctrl-C: SIGINT back to its default, so Python installs its
+    KeyboardInterrupt handler even when the tests run in a background job, which inherits SIGINT ignored."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="reads the process tree from Linux /proc")
 def test_workers_die_with_a_killed_run(tmp_path):
     """kill -9 leaves the parent no chance to stop its pool: the workers notice and end themselves."""
@@ -369,7 +375,9 @@ def test_ctrl_c_keeps_what_is_on_disk_and_says_so(tmp_path):
     """SIGINT once episodes are on disk: exit 130, one message counting the records in the file, no
     traceback, no temporary file."""
     command = [sys.executable, "-m", "cabinbench.run", *LONG, "--out", str(tmp_path)]
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    process = subprocess.Popen(
+        command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=ctrl_c_as_in_a_terminal
+    )
 
     def records() -> list[str]:
         return [line for path in tmp_path.glob("*.jsonl") for line in path.read_text().splitlines()]
