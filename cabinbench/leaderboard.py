@@ -12,6 +12,8 @@ files only, one report per module:
 - ``<out>/leaderboard.md`` and ``<out>/leaderboard.csv`` (:mod:`cabinbench.leaderboard_table`):
   the records outside any suite, a row per training seed of a learned baseline (the shipped
   policy's episodes come from ``--runs``, the other seeds' from ``--ablation-runs``);
+- the teams section of ``leaderboard.md`` and ``<out>/teams.csv`` (:mod:`cabinbench.leaderboard_teams`):
+  coverage, makespan, load balance and contacts of every baseline run with several robots, by K;
 - the suites section of ``leaderboard.md`` and its ``figures/suite__*.png``, from the records
   that carry a ``suite`` (:mod:`cabinbench.leaderboard_suites`; nothing when there are none);
 - ``<out>/uncovered.md`` and ``<out>/uncovered.csv`` (:mod:`cabinbench.leaderboard_uncovered`);
@@ -46,6 +48,7 @@ from .leaderboard_figures import training_figures, write_figures
 from .leaderboard_site import Entry, build_site
 from .leaderboard_suites import classic, suite_records, suites_section
 from .leaderboard_table import csv_table, group_rows, markdown, mixed_settings, summarize_row, table_rows
+from .leaderboard_teams import team_rows, teams_csv, teams_section
 from .leaderboard_uncovered import uncovered_csv, uncovered_markdown, uncovered_rows
 from .records import read_records, with_current_complexity
 from .submissions import add, filed, status, verify
@@ -164,9 +167,12 @@ def main(argv: list[str] | None = None) -> int:
     command = f"python -m cabinbench.leaderboard --runs {args.runs} --out {out}"
     sources = f"`{args.runs}` (shipped policies) and `{ablation_runs}` (the other training seeds' policies)"
     text = markdown(table, classic(every), sources, command, notes)
+    teams = team_rows(own)
     suite_text, suite_figures = suites_section(suite_records(every), out)
-    (out / "leaderboard.md").write_text(text + suite_text, encoding="utf-8")
+    (out / "leaderboard.md").write_text(text + teams_section(teams) + suite_text, encoding="utf-8")
     csv_table(table).to_csv(out / "leaderboard.csv", index=False, float_format="%.6g", lineterminator="\n")
+    if teams:
+        teams_csv(teams).to_csv(out / "teams.csv", index=False, float_format="%.6g", lineterminator="\n")
     uncovered, uncovered_notes = uncovered_rows(groups)
     for note in uncovered_notes:
         print(f"warning: {note}", file=sys.stderr)

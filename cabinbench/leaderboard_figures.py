@@ -25,6 +25,7 @@ from matplotlib import colormaps
 from matplotlib.figure import Figure  # no pyplot: figures render with Agg, no window, no global state
 
 from .leaderboard_table import row_label, row_name, stored_run
+from .metrics import team_of_one
 from .records import safe_name
 from .render import COVERED, FLOOR, OBSTACLE, ROBOT_COLOURS
 from .stats import Summary, mean_ci
@@ -136,7 +137,7 @@ def makespan_figure(groups: list[tuple[dict, pd.DataFrame]], path: Path) -> bool
     nothing to draw."""
     series: dict[tuple, list[tuple[int, Summary]]] = {}
     for key, episodes in groups:
-        values = episodes["makespan"] if key["n_agents"] > 1 else episodes["time"]
+        values = (episodes if key["n_agents"] > 1 else team_of_one(episodes))["makespan"]
         series.setdefault((key["layout"], key["baseline"], key["protocol"]), []).append(
             (key["n_agents"], mean_ci(values), bool(episodes["success"].all()))
         )

@@ -89,10 +89,10 @@ def group_rows(records: pd.DataFrame) -> list[tuple[dict, pd.DataFrame]]:
     return sorted(groups, key=lambda group: tuple(group[0][name] for name in SORT_KEY))
 
 
-def summarize_row(key: dict, episodes: pd.DataFrame, policy: str = "") -> dict:
+def summarize_row(key: dict, episodes: pd.DataFrame, policy: str = "", metrics=COLUMNS) -> dict:
     """One leaderboard row over the episodes of one policy or, for ``ALL_SEEDS``, of several
-    (column ``policy``): identifiers, counts, complexity, and a Summary per metric over the
-    distinct episodes, each policy a stratum."""
+    (column ``policy``): identifiers, counts, complexity, and a Summary per metric of ``metrics``
+    over the distinct episodes, each policy a stratum."""
     complexity = layout_complexity_of(episodes)
     per_policy = {
         name: distinct_episodes(group)
@@ -111,7 +111,7 @@ def summarize_row(key: dict, episodes: pd.DataFrame, policy: str = "") -> dict:
         "complexity_total": complexity["total"],
         "coverage_iqm": iqm(distinct["coverage"]),
     }
-    for metric in COLUMNS:
+    for metric in metrics:
         cells = {(name, key["layout"]): group[metric].tolist() for name, group in per_policy.items()}
         row[metric] = summarize_cells(metric, cells)
     return row

@@ -30,7 +30,8 @@ Where the uncovered floor lies (not an episode metric; the leaderboard's ``uncov
 :func:`uncovered_by_clearance` splits ``1 - coverage`` into bands of distance from the nearest wall.
 
 Teams (K > 1) add ``n_agents``, ``path_lengths`` (per robot), ``makespan`` (simulated seconds
-until the last robot made its last move) and ``load_balance`` (max / mean path length).
+until the last robot made its last move) and ``load_balance`` (max / mean path length). A single
+robot is a team of one (:func:`team_of_one`): its makespan is its episode time.
 """
 
 from __future__ import annotations
@@ -67,6 +68,12 @@ CLEARANCE_BANDS = (0.0, 0.05, 0.10, 0.20, 0.35)
 """Lower edges, in metres from the nearest wall, of the bands of :func:`uncovered_by_clearance`; the last
 band is open-ended. A robot covers the first band only when its edge comes within 5 cm of the wall; floor
 0.35 m (the built-in robot's diameter) or more from every wall is covered by any pass over it."""
+
+
+def team_of_one(episodes):
+    """Single-robot records (a DataFrame) with the makespan a team of one has, its episode time:
+    what K > 1 is compared against."""
+    return episodes.assign(makespan=episodes["time"])
 
 
 def overlap(pass_count: np.ndarray) -> float:

@@ -21,6 +21,7 @@ def test_committed_leaderboard_and_paper_match_the_records(tmp_path, monkeypatch
         "uncovered.csv",
         "ablation.md",
         "ablation.csv",
+        "teams.csv",
     ):
         regenerated = (out / name).read_text(encoding="utf-8").replace(str(out), "results")
         assert regenerated == (ROOT / "results" / name).read_text(encoding="utf-8"), (

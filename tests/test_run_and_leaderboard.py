@@ -195,6 +195,26 @@ def test_team_run_goes_through_the_parallel_env(tmp_path):
     assert read_trajectories(json.loads(stdout)["records"]).episodes[0]["positions"].shape[1:] == (2, 2)
 
 
+def test_teams_section_sets_each_team_beside_its_single_robot(short_run, tmp_path):
+    """A baseline run with K = 1 and 2 gets a teams row per K: the team's makespan, load balance and
+    robot contacts from its records, the single robot's makespan its episode time."""
+    runs = tmp_path / "runs"
+    shutil.copytree(Path(short_run["records"]).parent, runs)
+    status, _, _ = run_main([*SHORT, "--agents", "2", "--episodes", "2", "--out", str(runs)])
+    assert status == 0
+    assert leaderboard.main(["--runs", str(runs), "--out", str(tmp_path / "out")]) == 0
+    teams = pd.read_csv(tmp_path / "out" / "teams.csv").set_index("n_agents")
+    records = read_records(runs)
+    alone, team = records[records["n_agents"] == 1], records[records["n_agents"] == 2]
+    assert list(teams.index) == [1, 2] and set(teams["baseline"]) == {"random_bounce"}
+    assert teams.loc[1, "makespan_mean"] == pytest.approx(alone["time"].mean(), rel=1e-5)  # %.6g
+    assert math.isnan(teams.loc[1, "load_balance_mean"]) and math.isnan(teams.loc[1, "robot_collisions_mean"])
+    for metric in ("makespan", "load_balance", "robot_collisions", "coverage"):
+        assert teams.loc[2, f"{metric}_mean"] == pytest.approx(team[metric].mean(), rel=1e-5)
+    table = (tmp_path / "out" / "leaderboard.md").read_text()
+    assert "### Teams" in table and "| a320_cell | sequential | random_bounce |  | 2 | 2 |" in table
+
+
 def test_leaderboard_is_reproducible(short_run, tmp_path):
     runs = Path(short_run["records"]).parent
     outputs = []
