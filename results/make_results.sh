@@ -70,16 +70,17 @@ for baseline in $learned_baselines; do
 done
 
 # The learned team (ppo_gail_team, one policy shared by the robots) for K = 2, 4 on the two large layouts (K = 1 is
-# recorded above), beside the single-robot ppo_gail run on every robot of the team.
+# recorded above), beside the single-robot ppo_gail run on every robot of the team; every training seed of both.
 if [ -f baselines/ppo_gail/checkpoints/ppo_gail_team.pt ]; then
   for layout in full_cabin b777_3col; do
     for agents in 2 4; do
       for baseline in ppo_gail_team ppo_gail; do
         runs "0 100" 5 results/runs --agents "$agents" --baseline "$baseline" --layout "$layout" --protocol sequential
       done
-      for policy in results/training/ppo_gail/seed*/policy.pt; do  # every training seed of the per-robot policy
+      for policy in results/training/{ppo_gail,ppo_gail_team}/seed*/policy.pt; do
         [ -f "$policy" ] || continue
-        runs "0 100" 5 results/ablation_runs --agents "$agents" --baseline ppo_gail --layout "$layout" \
+        baseline=$(basename "$(dirname "$(dirname "$policy")")")
+        runs "0 100" 5 results/ablation_runs --agents "$agents" --baseline "$baseline" --layout "$layout" \
           --protocol sequential --config "{\"checkpoint\": \"$policy\"}"
       done
     done
@@ -100,6 +101,18 @@ for suite in cabin-v1-test cabin-v1-ood; do
   if [ -f baselines/ppo_gail/checkpoints/ppo_gail.pt ]; then
     suite_run --suite "$suite" --baseline ppo_gail
   fi
+done
+
+# The learned team on the first 50 layouts of cabin-v1-test, K = 1, 2 and 4, every training seed.
+for policy in baselines/ppo_gail/checkpoints/ppo_gail_team.pt results/training/ppo_gail_team/seed*/policy.pt; do
+  [ -f "$policy" ] || continue
+  config=()
+  if [ "$policy" != baselines/ppo_gail/checkpoints/ppo_gail_team.pt ]; then  # the shipped one runs without
+    config=(--config "{\"checkpoint\": \"$policy\"}")
+  fi
+  for agents in 1 2 4; do
+    suite_run --suite cabin-v1-test --layouts 50 --baseline ppo_gail_team --agents "$agents" "${config[@]}"
+  done
 done
 
 # The generalisation gap (the leaderboard's "Generalisation gap"): the learned policies trained on the two cells

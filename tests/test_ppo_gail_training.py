@@ -436,7 +436,7 @@ def test_committed_training_configs_read_back_as_they_were_written():
     assert len(paths) >= 4
     for path in paths:
         text = path.read_text()
-        config_class = TeamTrainConfig if path.parent.name == "ppo_gail_team" else training.TrainConfig
+        config_class = TeamTrainConfig if "ppo_gail_team" in path.parts else training.TrainConfig
         config = config_class.from_dict(json.loads(text))
         assert json.dumps(config.to_dict(), indent=2) + "\n" == text, path
         assert {"use_curiosity", "use_gail"} <= json.loads(text).keys()  # what the leaderboard reads

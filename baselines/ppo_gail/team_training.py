@@ -19,6 +19,10 @@ The single-robot trainer (``baselines.ppo_gail.training``) runs unchanged: ``Tea
   them) on the few iterations a 2-core CPU affords;
 - validation plays the team (``n_agents`` robots) on each training layout.
 
+The shipped policy takes two such runs (``results/train_team_policies.sh``): K = 2 from ``ppo_gail``, then
+K = 4 from that policy with ``--init-policy`` and no entropy bonus (``docs/experiments.md``, "The learned
+team").
+
 ``python -m cabinbench.train --baseline ppo_gail_team --layout full_cabin --agents 2`` runs it
 (``baselines.ppo_gail.cli``); ``python -m cabinbench.run --baseline ppo_gail_team --agents 2`` plays the
 exported policy (``policy.PPOGailTeam``).
