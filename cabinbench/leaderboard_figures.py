@@ -8,8 +8,9 @@
 - ``bars_coverage.png`` and ``bars_time.png``: means with 95% interval error bars, grouped by
   layout;
 - ``makespan_agents.png``: team makespan against the number of robots, one panel per layout, for
-  the settings run with several K whose episodes all succeeded (a makespan cut short by the step
-  limit measures the limit, not the team), with the ideal T(1)/K and each K's speed-up T(1)/T(K);
+  the settings run with several K whose teams (K > 1) succeeded in every episode (a makespan cut
+  short by the step limit measures the limit, not the team); a single robot that did not is a
+  hollow point, and only one that did gives the ideal T(1)/K and each K's speed-up T(1)/T(K);
 - ``training__<baseline>.png``: the training curves (the seed's Fig. 5.8) of each shipped learned
   policy, from the ``metrics.csv`` that ``python -m cabinbench.train --ship`` keeps.
 """
@@ -132,9 +133,10 @@ def bar_figure(rows: list[dict], metric: str, ylabel: str, colours: dict, path: 
 
 def makespan_figure(groups: list[tuple[dict, pd.DataFrame]], path: Path) -> bool:
     """Team makespan (a single robot's: its episode time) against the number of robots K, one panel
-    per layout, one line per (baseline, protocol) run with several K and successful in every episode;
-    dashed: the ideal T(1)/K; each point is labelled with its speed-up T(1)/T(K). False when there is
-    nothing to draw."""
+    per layout, one line per (baseline, protocol) run with several K whose teams succeeded in every
+    episode; hollow: a single robot that did not (its time is partly the step limit); when it did,
+    dashed: the ideal T(1)/K, and each point is labelled with its speed-up T(1)/T(K). False when
+    there is nothing to draw."""
     series: dict[tuple, list[tuple[int, Summary]]] = {}
     for key, episodes in groups:
         values = (episodes if key["n_agents"] > 1 else team_of_one(episodes))["makespan"]
@@ -144,7 +146,7 @@ def makespan_figure(groups: list[tuple[dict, pd.DataFrame]], path: Path) -> bool
     series = {
         name: sorted(points, key=lambda point: point[0])
         for name, points in series.items()
-        if len(points) > 1 and all(success for *_, success in points) and points[0][0] == 1
+        if len(points) > 1 and all(success for k, _, success in points if k > 1)
     }
     if not series:
         return False
@@ -160,7 +162,13 @@ def makespan_figure(groups: list[tuple[dict, pd.DataFrame]], path: Path) -> bool
             line = axes.errorbar(
                 agents, means, yerr=errors, marker="o", capsize=3, label=f"{baseline} / {protocol}"
             )
-            axes.plot(agents, means[0] / agents, linestyle="--", color=line[0].get_color(), alpha=0.5)
+            colour = line[0].get_color()
+            first_k, _, first_succeeded = points[0]
+            if not first_succeeded:
+                axes.plot(agents[:1], means[:1], marker="o", color=colour, markerfacecolor="white", zorder=5)
+            if first_k != 1 or not first_succeeded:
+                continue
+            axes.plot(agents, means[0] / agents, linestyle="--", color=colour, alpha=0.5)
             for k, mean in zip(agents[1:], means[1:]):
                 axes.annotate(
                     f"×{means[0] / mean:.2f}",
@@ -175,7 +183,9 @@ def makespan_figure(groups: list[tuple[dict, pd.DataFrame]], path: Path) -> bool
             sorted({k for name, points in series.items() if name[0] == layout for k, *_ in points})
         )
         axes.set_ylim(bottom=0)
-        axes.set_title(f"{layout}: mean, 95% interval; dashed: T(1)/K", fontsize=10)
+        axes.set_title(
+            f"{layout}: mean, 95% interval\ndashed: T(1)/K; hollow: not every episode finished", fontsize=10
+        )
         axes.legend(fontsize=7)
         axes.grid(alpha=0.3)
     save_figure(figure, path)
