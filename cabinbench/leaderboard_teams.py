@@ -21,8 +21,8 @@ from .metrics import team_of_one
 from .stats import RATES, Summary
 
 TEAM_KEY = ("layout", "protocol", "baseline")
-# metric → (column title, format of its numbers)
 NOT_FOR_ONE = ("load_balance", "robot_collisions")  # what a single robot's row leaves empty
+# metric → (column title, format of its numbers)
 TEAM_COLUMNS = {
     "coverage": ("coverage", ".3f"),
     "makespan": ("makespan (s)", ".1f"),
