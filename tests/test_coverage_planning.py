@@ -6,6 +6,7 @@ written here. Planning time is measured by ``python -m cabinbench.bench``, never
 """
 
 import fcntl
+import importlib
 import math
 import os
 import select
@@ -41,6 +42,9 @@ from cabinbench.baselines.path_following import PathFollower
 from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.geometry import offsets_from_segments, world_to_pixel
 from cabinbench.world import TIME_STEP
+
+# The package exports the function ``route`` under the module's name.
+route_module = importlib.import_module("cabinbench.baselines.coverage_planning.route")
 
 RESOLUTION = 0.05
 TOOL_WIDTH = 0.35
@@ -552,6 +556,34 @@ def test_last_cells_are_swept_last():
     assert set(plan.cell_order[-2:]) == marked
     assert not set(free_order[-2:]) == marked  # the constraint changed the route
     assert plan_segments_are_free(plan, centre_free)
+
+
+def _straight_line_distances(points):
+    return np.linalg.norm(points[:, None, :] - points[None, :, :], axis=2)
+
+
+def test_a_long_route_searched_by_neighbour_lists_is_as_short_as_an_exhaustive_one(monkeypatch):
+    # 600 lanes (more than EXHAUSTIVE_ROUTE_UNITS) scattered over a 300 x 300 px floor, each
+    # swept either way; the last 20 are kept for the end of the route.
+    rng = np.random.default_rng(0)
+    starts = rng.uniform(0, 300, size=(600, 2))
+    ends = starts + rng.uniform(-6, 6, size=(600, 2))
+    sweeps = [[np.array([a, b]), np.array([b, a])] for a, b in zip(starts, ends)]
+    last = set(range(580, 600))
+    assert len(sweeps) > route_module.EXHAUSTIVE_ROUTE_UNITS
+
+    def length(tour):
+        path = np.vstack([np.array([[150.0, 150.0]])] + [sweeps[unit][variant] for unit, variant in tour])
+        return float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
+
+    by_neighbours = route_module.route(sweeps, (150, 150), _straight_line_distances, last)
+    monkeypatch.setattr(route_module, "EXHAUSTIVE_ROUTE_UNITS", len(sweeps))
+    exhaustive = route_module.route(sweeps, (150, 150), _straight_line_distances, last)
+    for tour in (by_neighbours, exhaustive):
+        assert sorted(unit for unit, _ in tour) == list(range(600))
+        assert {unit for unit, _ in tour[-20:]} == last
+    assert by_neighbours != exhaustive  # the neighbour lists searched differently
+    assert length(by_neighbours) <= 1.02 * length(exhaustive)
 
 
 def test_per_cell_direction_beats_a_single_axis():

@@ -4,7 +4,9 @@ Input: the units' variants, the start pixel and a transit cost function (geodesi
 ``FreeSpace.pairwise_distances``); output: the tour, a list of (unit, variant). Greedy nearest
 neighbour from the start, then 2-opt, Or-opt (which fits a side pocket in between two stretches
 of the corridor it branches off) and a dynamic programme over the variants. Units in
-``last_units`` come after all the others.
+``last_units`` come after all the others. A route of more than ``EXHAUSTIVE_ROUTE_UNITS`` units
+(a large building) tries only the moves that make a link to one of a unit's
+``NEIGHBOUR_UNITS`` nearest units.
 """
 
 from __future__ import annotations
@@ -23,6 +25,12 @@ from cabinbench.geometry import polyline_length
 # at this radius; pairs farther apart are ranked by (radius + straight-line distance). Radii from
 # 1.5 m to 8 m give plans within 1% of each other on the built-in layouts.
 ROUTING_SEARCH_RADIUS_M = 3.0
+# Each pass of 2-opt and Or-opt tries every pair of route positions: milliseconds for a cabin's
+# tens of units or a small building's hundreds, but most of a large building's planning time
+# (2,400 units: 11 s). Longer routes try only the moves that link a unit to one of its nearest
+# units (neighbour lists, as in Lin-Kernighan codes); an improving move almost always makes such a link.
+EXHAUSTIVE_ROUTE_UNITS = 500
+NEIGHBOUR_UNITS = 16
 
 
 def route(
@@ -51,8 +59,8 @@ def route(
     # Exits are the entries of the reversed variants, so one set of points serves for both.
     points = np.vstack((np.asarray(start)[None, :], entries.reshape(-1, 2)))
     distances = pairwise_distance(points)
-    start_to = distances[0, 1:].reshape(unit_count, variant_count)
-    costs = RouteCosts(start_to, *_transit_tables(distances, variant_count), in_unit_length)
+    costs = RouteCosts(distances, in_unit_length)
+    near = _near_units(distances, variant_count, exhaustive=unit_count <= EXHAUSTIVE_ROUTE_UNITS)
 
     groups = [
         [index for index in range(unit_count) if index not in last_units],
@@ -62,8 +70,8 @@ def route(
     group_end = len(groups[0])
     cost = costs.tour(tour)
     while True:
-        tour = _two_opt(tour, group_end, costs)
-        tour = _or_opt(tour, group_end, costs)
+        tour = _two_opt(tour, group_end, costs, near)
+        tour = _or_opt(tour, group_end, costs, near)
         tour = _best_variants([cell for cell, _ in tour], costs)
         new_cost = costs.tour(tour)
         if new_cost >= cost - 1e-9:
@@ -73,28 +81,25 @@ def route(
 
 @dataclass
 class RouteCosts:
-    """The cost tables of a route (see ``route``); steps are (unit, variant) tuples."""
+    """The costs of a route (see ``route``). Steps are (unit, variant) tuples, or one index,
+    unit * variants + variant, whose reversal is index ^ 1: the exit of a step is the entry of its
+    reversal, so the distances between the start and the entries serve for every transit."""
 
-    start_to: np.ndarray  # [unit, variant]: from the start to the entry
-    transit: np.ndarray  # [a, v, b, w]: from the exit of unit a swept by variant v to the entry of b by w
-    arrive: np.ndarray  # [b, w, a, v]: transit[a, v, b, w], by rows of the arriving step
+    distances: np.ndarray  # [p, q] between points: 0 is the start, 1 + step the entry of a step
     in_unit: np.ndarray  # [unit, variant]: the sweep itself
-
-    def link(self, a: tuple[int, int] | None, b: tuple[int, int] | None) -> float:
-        """Transit from step a (None: the start) to step b (None: the end of the route, free)."""
-        if b is None:
-            return 0.0
-        return self.start_to[b] if a is None else self.transit[a + b]
 
     @property
     def variant_count(self) -> int:
-        return self.start_to.shape[1]
+        return self.in_unit.shape[1]
 
-    def rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The tables by step index (unit * variants + variant): from the start, and transit and
-        arrive as (steps, steps) matrices (views)."""
-        steps = self.start_to.size
-        return self.start_to.ravel(), self.transit.reshape(steps, steps), self.arrive.reshape(steps, steps)
+    def transits_from(self, step: tuple[int, int] | None) -> np.ndarray:
+        """[unit, variant]: from the exit of ``step`` (None: the start) to the entry of every step."""
+        source = 0 if step is None else 1 + ((step[0] * self.variant_count + step[1]) ^ 1)
+        return self.distances[source, 1:].reshape(self.in_unit.shape)
+
+    def link(self, a: tuple[int, int] | None, b: tuple[int, int] | None) -> float:
+        """Transit from step a (None: the start) to step b (None: the end of the route, free)."""
+        return 0.0 if b is None else self.transits_from(a)[b]
 
     def tour(self, tour: list[tuple[int, int]]) -> float:
         steps = [None, *tour, None]
@@ -108,7 +113,7 @@ def _greedy(groups, costs: RouteCosts) -> list[tuple[int, int]]:
     for group in groups:
         remaining = list(group)
         while remaining:
-            options = costs.start_to[remaining] if not tour else costs.transit[tour[-1]][remaining]
+            options = costs.transits_from(tour[-1] if tour else None)[remaining]
             # Equal transits (adjacent units) are decided by the cheaper way through the unit.
             options = options + 1e-6 * costs.in_unit[remaining]
             flat = int(np.argmin(options))
@@ -117,31 +122,45 @@ def _greedy(groups, costs: RouteCosts) -> list[tuple[int, int]]:
     return tour
 
 
-def _two_opt(tour, group_end, costs: RouteCosts) -> list[tuple[int, int]]:
+def _near_units(distances: np.ndarray, variant_count: int, exhaustive: bool) -> np.ndarray:
+    """``near[0]``: the ``NEIGHBOUR_UNITS`` units whose entries lie nearest the start; ``near[1 + s]``:
+    those nearest the entry of step s (unordered). With ``exhaustive``, no columns: every move is tried."""
+    points = distances.shape[0]
+    unit_count = (points - 1) // variant_count
+    if exhaustive or unit_count <= NEIGHBOUR_UNITS:
+        return np.empty((points, 0), dtype=np.int64)
+    near = np.empty((points, NEIGHBOUR_UNITS), dtype=np.int64)
+    for first in range(0, points, 1024):  # rows a block at a time: the matrix is hundreds of MB
+        rows = distances[first : first + 1024, 1:].reshape(-1, unit_count, variant_count).min(axis=2)
+        near[first : first + 1024] = np.argpartition(rows, NEIGHBOUR_UNITS, axis=1)[:, :NEIGHBOUR_UNITS]
+    return near
+
+
+def _two_opt(tour, group_end, costs: RouteCosts, near: np.ndarray) -> list[tuple[int, int]]:
     """2-opt on the open route with a fixed start; stretches never cross the group boundary."""
     steps = _steps(tour, costs)
-    _two_opt_compiled(steps, group_end, *costs.rows())
+    _two_opt_compiled(steps, group_end, costs.distances, near, costs.variant_count)
     return _tour(steps, costs)
 
 
-def _or_opt(tour, group_end, costs: RouteCosts, max_segment: int = 3) -> list[tuple[int, int]]:
+def _or_opt(
+    tour, group_end, costs: RouteCosts, near: np.ndarray, max_segment: int = 3
+) -> list[tuple[int, int]]:
     """Or-opt: move stretches of up to ``max_segment`` units, either way round, to a better place.
 
     This is the move that nests routes: a side pocket left for later is fitted in between two
     pieces of the corridor it branches off. Stretches stay within their group.
     """
     steps = _steps(tour, costs)
-    _or_opt_compiled(steps, group_end, *costs.rows(), max_segment)
+    _or_opt_compiled(steps, group_end, costs.distances, near, costs.variant_count, max_segment)
     return _tour(steps, costs)
 
 
-# The moves run compiled (numba): a building's route has a thousand units, and each pass of 2-opt
-# and Or-opt looks at every pair of them. There a step (unit, variant) is one index,
-# unit * variants + variant (its reversal is index ^ 1), into the rows of the cost tables: from one
-# step to every other (``transit``) and into one step from every other (``arrive``). The route's
-# own links are kept in a table, so that a pass reads memory in order (a building's tables hold
-# hundreds of MB). Step -1 stands for the start (before the first step) or the end of the route
-# (after the last), where the transit is free.
+# The moves run compiled (numba): a building's route has thousands of units. There a step is its
+# index (see ``RouteCosts``) and the route's own links are kept in a table. Step -1 stands for the
+# start (before the first step) or the end of the route (after the last), where the transit is
+# free. ``near`` (see ``_near_units``) has rows 1 + step and holds units; ``where[unit]`` is the
+# unit's position in the route.
 def _steps(tour, costs: RouteCosts) -> np.ndarray:
     return np.array([unit * costs.variant_count + variant for unit, variant in tour], dtype=np.int64)
 
@@ -151,76 +170,97 @@ def _tour(steps: np.ndarray, costs: RouteCosts) -> list[tuple[int, int]]:
 
 
 @njit(cache=True)
-def _transit_tables(distances, variant_count):
-    """``transit`` and ``arrive`` (see ``RouteCosts``) from the distances between the start and the
-    units' entries, copied a tile at a time (a building's tables are hundreds of MB)."""
-    count = (distances.shape[0] - 1) // variant_count
-    transit = np.empty((count, variant_count, count, variant_count))
-    arrive = np.empty((count, variant_count, count, variant_count))
-    tile = 16
-    for a_tile in range(0, count, tile):
-        for b_tile in range(0, count, tile):
-            for a in range(a_tile, min(a_tile + tile, count)):
-                for v in range(variant_count):
-                    # the exit of a by v is the entry of a by v ^ 1
-                    row = distances[1 + a * variant_count + (v ^ 1)]
-                    for b in range(b_tile, min(b_tile + tile, count)):
-                        for w in range(variant_count):
-                            transit[a, v, b, w] = arrive[b, w, a, v] = row[1 + b * variant_count + w]
-    return transit, arrive
-
-
-@njit(cache=True)
-def _link(start, transit, a, b):
+def _link(distances, a, b):
     """Transit from step a (-1: the start) to step b (-1: the end of the route, free)."""
     if b < 0:
         return 0.0
-    if a < 0:
-        return start[b]
-    return transit[a, b]
+    return distances[0 if a < 0 else 1 + (a ^ 1), 1 + b]
 
 
 @njit(cache=True)
-def _route_links(steps, start, transit):
+def _route_links(steps, distances):
     """links[k]: the transit into step k of the route from the step before it (k = 0: from the
     start; k = len: to the end, free)."""
     count = len(steps)
     links = np.zeros(count + 1)
     for k in range(count):
-        links[k] = _link(start, transit, steps[k - 1] if k > 0 else -1, steps[k])
+        links[k] = _link(distances, steps[k - 1] if k > 0 else -1, steps[k])
     return links
 
 
 @njit(cache=True)
-def _two_opt_compiled(steps, group_end, start, transit, arrive):
+def _positions(steps, variant_count):
+    """where[unit]: the position of the unit in the route."""
+    where = np.empty(len(steps), dtype=np.int64)
+    for position in range(len(steps)):
+        where[steps[position] // variant_count] = position
+    return where
+
+
+@njit(cache=True)
+def _distinct_within(candidates, low, high):
+    """The distinct candidates in [low, high), ascending (the order an exhaustive pass tries them in)."""
+    values = np.sort(candidates)
+    kept = np.empty(len(values), dtype=np.int64)
+    count = 0
+    for value in values:
+        if low <= value < high and (count == 0 or kept[count - 1] != value):
+            kept[count] = value
+            count += 1
+    return kept[:count]
+
+
+@njit(cache=True)
+def _two_opt_ends(steps, where, near, i, group_stop):
+    """The ends j to try for a 2-opt reversal of i..j: those whose new link into the reversed stretch
+    (from the step before i, or the start) or out of it (to the step after j) reaches a near unit,
+    and the end of the route (the link out of it is free)."""
+    if near.shape[1] == 0:
+        return np.arange(i, group_stop)
+    count = len(steps)
+    first = near[0] if i == 0 else near[1 + (steps[i - 1] ^ 1)]  # from the exit of the step before i
+    out = near[1 + steps[i]]  # the exit of reversed steps[i] is the entry of steps[i]
+    candidates = np.empty(len(first) + len(out) + 1, dtype=np.int64)
+    for k in range(len(first)):
+        candidates[k] = where[first[k]]
+    for k in range(len(out)):
+        candidates[len(first) + k] = where[out[k]] - 1
+    candidates[-1] = count - 1
+    return _distinct_within(candidates, i, group_stop)
+
+
+@njit(cache=True)
+def _two_opt_compiled(steps, group_end, distances, near, variant_count):
     """2-opt in place: reversing stretch i..j reverses each of its steps (index ^ 1); first
     improvement, scanning i then j, until a whole pass gains nothing."""
     count = len(steps)
-    links = _route_links(steps, start, transit)
+    links = _route_links(steps, distances)
+    where = _positions(steps, variant_count)
     improved = True
     while improved:
         improved = False
         for group_start, group_stop in ((0, group_end), (group_end, count)):
             for i in range(group_start, group_stop):
                 before = steps[i - 1] if i > 0 else -1
-                for j in range(i, group_stop):
+                for j in _two_opt_ends(steps, where, near, i, group_stop):
                     after = steps[j + 1] if j + 1 < count else -1
                     old = links[i] + links[j + 1]
-                    new = _link(start, transit, before, steps[j] ^ 1) + _link(
-                        start, transit, steps[i] ^ 1, after
-                    )
+                    new = _link(distances, before, steps[j] ^ 1) + _link(distances, steps[i] ^ 1, after)
                     if new < old - 1e-9:
                         steps[i : j + 1] = steps[i : j + 1][::-1] ^ 1
-                        links = _route_links(steps, start, transit)
+                        links = _route_links(steps, distances)
+                        for position in range(i, j + 1):
+                            where[steps[position] // variant_count] = position
                         improved = True
 
 
 @njit(cache=True)
-def _or_opt_compiled(steps, group_end, start, transit, arrive, max_segment):
+def _or_opt_compiled(steps, group_end, distances, near, variant_count, max_segment):
     """Or-opt in place: for each stretch length and position, the best gap (first of equal gains)
     and way round to move the stretch to, moved there when it gains; until a pass gains nothing."""
     count = len(steps)
-    links = _route_links(steps, start, transit)
+    links = _route_links(steps, distances)
+    where = _positions(steps, variant_count)
     improved = True
     while improved:
         improved = False
@@ -231,26 +271,47 @@ def _or_opt_compiled(steps, group_end, start, transit, arrive, max_segment):
                 if in_first_group and i + length > group_end:
                     i += 1
                     continue
-                gap, reverse = _best_insertion(steps, links, i, length, group_end, start, transit, arrive)
+                gap, reverse = _best_insertion(steps, links, where, near, i, length, group_end, distances)
                 if gap >= 0:
                     stretch = steps[i : i + length][::-1] ^ 1 if reverse else steps[i : i + length].copy()
                     rest = np.concatenate((steps[:i], steps[i + length :]))
                     steps[:] = np.concatenate((rest[:gap], stretch, rest[gap:]))
-                    links = _route_links(steps, start, transit)
+                    links = _route_links(steps, distances)
+                    where = _positions(steps, variant_count)
                     improved = True
                 i += 1
 
 
 @njit(cache=True)
-def _best_insertion(steps, links, i, length, group_end, start, transit, arrive):
+def _insertion_gaps(where, near, i, length, head, tail, first_gap, last_gap):
+    """The gaps to try for the stretch i .. i + length - 1 (entered at ``head``, left at ``tail``):
+    those whose step before reaches the head, or whose step after is reached from the tail, through
+    a near unit; the stretch's own place, the start and the end of the route."""
+    if near.shape[1] == 0:
+        return np.arange(first_gap, last_gap + 1)
+    into, out = near[1 + head], near[1 + (tail ^ 1)]  # the exit of the tail is the entry of tail ^ 1
+    candidates = np.empty(len(into) + len(out) + 3, dtype=np.int64)
+    count = 0
+    for k in range(len(into) + len(out)):
+        position = where[into[k]] if k < len(into) else where[out[k - len(into)]]
+        if i <= position < i + length:
+            continue
+        # the gap after the unit reaching the head, or before the unit the tail reaches, in the
+        # route without the stretch
+        candidates[count] = (position if position < i else position - length) + (k < len(into))
+        count += 1
+    candidates[count], candidates[count + 1], candidates[count + 2] = i, first_gap, last_gap
+    return _distinct_within(candidates[: count + 3], first_gap, last_gap + 1)
+
+
+@njit(cache=True)
+def _best_insertion(steps, links, where, near, i, length, group_end, distances):
     """The best (gap, reversed) to move stretch i .. i + length - 1 to, or (-1, False) if no move
     gains. Gap g lies between rest[g - 1] (or the start) and rest[g] (or the end of the route),
     where rest is the route without the stretch."""
     count = len(steps)
     last = i + length - 1
-    closing = _link(
-        start, transit, steps[i - 1] if i > 0 else -1, steps[last + 1] if last + 1 < count else -1
-    )
+    closing = _link(distances, steps[i - 1] if i > 0 else -1, steps[last + 1] if last + 1 < count else -1)
     removal = links[i] + links[last + 1] - closing
     rest_count = count - length
     first_gap, last_gap = (0, group_end - length) if i < group_end else (group_end, rest_count)
@@ -259,13 +320,14 @@ def _best_insertion(steps, links, i, length, group_end, start, transit, arrive):
         # the stretch's first and last steps, either way round
         head = steps[last] ^ 1 if reverse else steps[i]
         tail = steps[i] ^ 1 if reverse else steps[last]
-        into_head, out_of_tail = arrive[head], transit[tail]
+        # into the head from every point, and out of the tail to every point
+        into_head, out_of_tail = distances[:, 1 + head], distances[1 + (tail ^ 1)]
         gain_here, gap_here = -np.inf, -1
-        for gap in range(first_gap, last_gap + 1):
+        for gap in _insertion_gaps(where, near, i, length, head, tail, first_gap, last_gap):
             previous = gap - 1 if gap - 1 < i else gap - 1 + length  # rest[gap - 1] in the route
             following = gap if gap < i else gap + length  # rest[gap]
-            into = start[head] if gap == 0 else into_head[steps[previous]]
-            out = out_of_tail[steps[following]] if gap < rest_count else 0.0
+            into = into_head[0] if gap == 0 else into_head[1 + (steps[previous] ^ 1)]
+            out = out_of_tail[1 + steps[following]] if gap < rest_count else 0.0
             replaced = closing if gap == i else links[following] if gap < rest_count else 0.0
             gain = removal - (into + out - replaced)
             if gain > gain_here:
@@ -277,10 +339,11 @@ def _best_insertion(steps, links, i, length, group_end, start, transit, arrive):
 
 def _best_variants(order, costs: RouteCosts) -> list[tuple[int, int]]:
     """For a fixed unit order, the cheapest variant of every unit (Viterbi over the variants)."""
-    cost = costs.start_to[order[0]] + costs.in_unit[order[0]]
+    cost = costs.transits_from(None)[order[0]] + costs.in_unit[order[0]]
     choices = []
     for previous, cell in zip(order[:-1], order[1:]):
-        candidates = cost[:, None] + costs.transit[previous, :, cell, :]
+        transits = np.array([costs.transits_from((previous, variant))[cell] for variant in range(len(cost))])
+        candidates = cost[:, None] + transits
         choices.append(np.argmin(candidates, axis=0))
         cost = candidates.min(axis=0) + costs.in_unit[cell]
     variants = [int(np.argmin(cost))]
