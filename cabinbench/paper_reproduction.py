@@ -3,7 +3,8 @@
 Each row gives where the study makes the claim, the study's value, ours, and a verdict with its
 reason. The study's values are quoted from the dissertation (they are the claims); ours are
 measured now, from the built-in layouts, the ``paper`` reward preset, the shipped policies'
-training configurations (``results/training/<learner>/config.json``) and the recorded episodes
+training configurations (``results/training/<learner>/config.json``; the study's pair ships its two
+networks' configurations and training summaries beside their checkpoints) and the recorded episodes
 (``results/runs``, sequential protocol, one robot), never typed. Verdicts follow fixed rules:
 
 - a value: *reproduced* when ours equals the study's to its printed precision, *partly* when it is
@@ -33,6 +34,9 @@ from .stats import mean_ci
 from .world import TIME_STEP, RobotEvents, StepEvents
 
 RANDOM = ("random_bounce", "random_bounce_study")
+# The study's pair keeps its records beside its checkpoints (read as files: the paper needs no torch).
+STUDY_CHECKPOINTS = Path(__file__).resolve().parent / "baselines" / "ppo_gail" / "checkpoints"
+STUDY_STAGES = ("cleaning", "tracking")
 STUDY_RANDOM_SECONDS = 60.0  # Fig. 5.12(e): the random robot's 3000 steps took "around 60s"
 LEARNERS = ("ppo_gail_study", "ppo_gail")  # the study's configuration, then our tuned variant
 COLUMNS = "| where | claim | study | ours | verdict |\n|---|---|---|---|---|"
@@ -102,9 +106,31 @@ def episodes(records: pd.DataFrame, layout: str, baseline: str) -> pd.DataFrame:
     return records[chosen]
 
 
-def training_config(results: Path, learner: str) -> dict | None:
+def training_config(results: Path, learner: str, study_checkpoints: Path = STUDY_CHECKPOINTS) -> dict | None:
+    """The learner's training configuration, with ``trained``: (steps, layouts) per network. For
+    ``ppo_gail_study`` the cleaning network's, and the steps each network reached of those planned
+    (its ``.training.json`` in ``study_checkpoints``). None without the files (see ``training_record``)."""
+    if learner == "ppo_gail_study":
+        stages = [study_checkpoints / f"{learner}_{stage}" for stage in STUDY_STAGES]
+        files = [(stage.with_suffix(".config.json"), stage.with_suffix(".training.json")) for stage in stages]
+        if not all(path.is_file() for pair in files for path in pair):
+            return None
+        configs = [[json.loads(path.read_text(encoding="utf-8")) for path in pair] for pair in files]
+        trained = [(summary["timesteps"], config["layouts"]) for config, summary in configs]
+        return {**configs[0][0], "trained": trained}
     path = results / "training" / learner / "config.json"
-    return json.loads(path.read_text(encoding="utf-8")) if path.is_file() else None
+    if not path.is_file():
+        return None
+    config = json.loads(path.read_text(encoding="utf-8"))
+    steps = config.get("num_envs", 0) * config.get("num_steps_per_env", 0) * config.get("iterations", 0)
+    return {**config, "trained": [(steps, config.get("layouts", []))]}
+
+
+def training_record(learner: str) -> str:
+    """Where the learner's training record is read from, as the report names it."""
+    if learner == "ppo_gail_study":
+        return "`baselines/ppo_gail/checkpoints/` (`ppo_gail_study_<stage>.config.json`, `.training.json`)"
+    return f"`results/training/{learner}/`"
 
 
 def limit(runs: pd.DataFrame) -> str:
@@ -228,10 +254,9 @@ def learner_rows(configs: dict[str, dict | None], results: Path) -> list[str]:
                     "Tables 4.3, 5.2, 5.3",
                     f"`{learner}`",
                     "—",
-                    f"no training record in `results/training/{learner}/`",
+                    f"no training record in {training_record(learner)}",
                     "not",
-                    "not trained to the study's budget: see `results/differences.md` and the shipped "
-                    "policies' `.training.json` (steps reached of those planned)",
+                    "not trained: see `results/differences.md`",
                 )
             )
             continue
@@ -250,15 +275,17 @@ def learner_rows(configs: dict[str, dict | None], results: Path) -> list[str]:
             )
         )
         algorithm = config.get("algorithm", {})
-        steps = config.get("num_envs", 0) * config.get("num_steps_per_env", 0) * config.get("iterations", 0)
+        trained = " + ".join(
+            f"{steps / 1e6:.1f}M on {' + '.join(layouts)}" for steps, layouts in config["trained"]
+        )
         hidden = config.get("hidden_dims", [])
         settings = [
             ("hidden layers", "512 × 2", " × ".join(map(str, hidden)) or "?", hidden == [512, 512]),
             (
                 "training steps",
                 "6M cleaning + 2M tracking",
-                f"{steps / 1e6:.1f}M on {' + '.join(config.get('layouts', []))}",
-                steps >= 6e6,
+                trained,
+                sum(steps for steps, _ in config["trained"]) >= 8e6,
             ),
             ("reward", "Tables 4.4/4.5", f"`{config.get('reward')}`", config.get("reward") == "paper"),
             (
@@ -413,9 +440,12 @@ def transfer_rows(records: pd.DataFrame, learners: list[str]) -> list[str]:
     return rows
 
 
-def reproduction_table(records: pd.DataFrame, results: Path) -> str:
-    """The reproduction report's table (see the module doc)."""
-    configs = {learner: training_config(results, learner) for learner in LEARNERS}
+def reproduction_table(
+    records: pd.DataFrame, results: Path, study_checkpoints: Path = STUDY_CHECKPOINTS
+) -> str:
+    """The reproduction report's table (see the module doc); the study's pair's training records are
+    read from ``study_checkpoints``."""
+    configs = {learner: training_config(results, learner, study_checkpoints) for learner in LEARNERS}
     recorded = set(records["baseline"]) if not records.empty else set()
     learners = [learner for learner in LEARNERS if learner in recorded]
     sections: list[Callable[[], list[str]]] = [

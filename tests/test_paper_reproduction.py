@@ -35,8 +35,14 @@ def results(tmp_path_factory):
         "hidden_dims": [512, 512],
         "algorithm": {"gail_strength": 0.3},
     }
-    (results / "training" / "ppo_gail_study").mkdir(parents=True)
-    (results / "training" / "ppo_gail_study" / "config.json").write_text(json.dumps(config))
+    # the study's pair keeps its records beside its networks: here in results/checkpoints
+    (results / "checkpoints").mkdir()
+    for stage, layout, steps in (("cleaning", "a320_cell", 10240), ("tracking", "a320_tracking_cell", 2048)):
+        stage_config = {**config, "layouts": [layout]}
+        (results / "checkpoints" / f"ppo_gail_study_{stage}.config.json").write_text(json.dumps(stage_config))
+        (results / "checkpoints" / f"ppo_gail_study_{stage}.training.json").write_text(
+            json.dumps({"timesteps": steps})
+        )
     return results
 
 
@@ -47,14 +53,18 @@ def rows(table: str) -> dict[str, list[str]]:
 
 
 def test_the_report_measures_each_claim(results):
-    table = rows(reproduction_table(read_records(results / "runs"), results))
+    table = rows(reproduction_table(read_records(results / "runs"), results, results / "checkpoints"))
     assert table["complexity of A (`paper_matrix_a`)"][2:] == ["4.4859", "**reproduced**"]
     assert table["cabin map, total"][2].startswith("254.6765")
     assert table["`paper` reward: new goal (white cube) reached"][2:] == ["+0.5", "**reproduced**"]
     # the study's learner as configured: lidar and velocity only, the study's settings
     assert table["`ppo_gail_study` observes"][2:] == ["lidar (384) + velocity (2)", "**reproduced**"]
     assert table["`ppo_gail_study` hidden layers"][3] == "**reproduced**"
-    assert table["`ppo_gail_study` training steps"][2:] == ["0.0M on a320_cell", "**not**"]
+    # the steps each network reached, from its training summary
+    assert table["`ppo_gail_study` training steps"][2:] == [
+        "0.0M on a320_cell + 0.0M on a320_tracking_cell",
+        "**not**",
+    ]
     assert table["`ppo_gail`"][2] == "no training record in `results/training/ppo_gail/`"  # none here
     # the random episodes, measured from the records: never completed in 100 steps
     assert table["random motion never completes (`random_bounce_study`)"][2:] == [
@@ -70,6 +80,7 @@ def test_the_report_measures_each_claim(results):
 
 
 def test_a_learner_without_training_records_is_said_to_have_none(results, tmp_path):
-    table = rows(reproduction_table(read_records(results / "runs"), tmp_path))
-    assert table["`ppo_gail_study`"][2] == "no training record in `results/training/ppo_gail_study/`"
-    assert table["`ppo_gail_study`"][3].startswith("**not**: not trained to the study's budget")
+    table = rows(reproduction_table(read_records(results / "runs"), tmp_path, tmp_path))
+    assert table["`ppo_gail_study`"][2].startswith("no training record in `baselines/ppo_gail/checkpoints/`")
+    assert table["`ppo_gail`"][2] == "no training record in `results/training/ppo_gail/`"
+    assert table["`ppo_gail_study`"][3] == "**not**: not trained: see `results/differences.md`"
