@@ -335,43 +335,55 @@ def _astar(free, width, start_node, goal_node, best_cost, parent, closed):
 def _bounded_distances(free, width, sources, limit, cost, settled, target):
     """(len(sources), len(sources)) geodesic distances between the flat nodes ``sources`` (sorted,
     distinct), each Dijkstra search stopped at ``limit`` (inf beyond, as scipy's ``limit``). Leaves
-    the scratch clean."""
+    the scratch clean.
+
+    The searches need no heap: their queue is three buckets of unit width, a node in bucket k
+    costing [k, k + 1). A step costs 1 or sqrt(2), so it leads from bucket k to bucket k + 1 or
+    k + 2, never within k: every node taken from the lowest bucket, in any order, has its final
+    cost, the same float a heap would give (the least of the same sums). Stale entries (a node
+    whose cost fell since) are skipped as settled.
+    """
     offsets, steps, side_a, side_b = _moves(width)
     count = len(sources)
     distances = np.full((count, count), np.inf)
     for index in range(count):
         target[sources[index]] = index
     touched = np.empty(64, dtype=np.int64)
-    f, g, heap_node = np.empty(64), np.empty(64), np.empty(64, dtype=np.int64)
+    buckets = np.empty((3, 64), dtype=np.int64)
+    sizes = np.zeros(3, dtype=np.int64)
     for source in range(count):
-        touched_count, size = 1, 0
+        touched_count = 1
         touched[0] = sources[source]
         cost[sources[source]] = 0.0
-        _heap_push(f, g, heap_node, size, 0.0, 0.0, sources[source])
-        size += 1
-        while size > 0:
-            _heap_pop(f, g, heap_node, size)
-            size -= 1
-            node = heap_node[size]
-            if settled[node]:
-                continue
-            settled[node] = True
-            if target[node] >= 0:
-                distances[source, target[node]] = cost[node]
-            for move in range(8):
-                neighbour = node + offsets[move]
-                if settled[neighbour] or not _passable(free, node, neighbour, side_a[move], side_b[move]):
+        buckets[0, 0], sizes[0] = sources[source], 1
+        level = 0
+        while sizes.sum() > 0:
+            bucket = level % 3
+            for entry in range(sizes[bucket]):  # steps fill the other two buckets only
+                node = buckets[bucket, entry]
+                if settled[node]:
                     continue
-                new_cost = cost[node] + steps[move]
-                if new_cost <= limit and new_cost < cost[neighbour]:
-                    if cost[neighbour] == np.inf:
-                        touched = _room(touched, touched_count)
-                        touched[touched_count] = neighbour
-                        touched_count += 1
-                    cost[neighbour] = new_cost
-                    f, g, heap_node = _room(f, size), _room(g, size), _room(heap_node, size)
-                    _heap_push(f, g, heap_node, size, new_cost, 0.0, neighbour)
-                    size += 1
+                settled[node] = True
+                if target[node] >= 0:
+                    distances[source, target[node]] = cost[node]
+                for move in range(8):
+                    neighbour = node + offsets[move]
+                    if settled[neighbour] or not _passable(free, node, neighbour, side_a[move], side_b[move]):
+                        continue
+                    new_cost = cost[node] + steps[move]
+                    if new_cost <= limit and new_cost < cost[neighbour]:
+                        if cost[neighbour] == np.inf:
+                            touched = _room(touched, touched_count)
+                            touched[touched_count] = neighbour
+                            touched_count += 1
+                        cost[neighbour] = new_cost
+                        into = int(new_cost) % 3
+                        if sizes[into] == buckets.shape[1]:
+                            buckets = np.concatenate((buckets, np.empty_like(buckets)), axis=1)
+                        buckets[into, sizes[into]] = neighbour
+                        sizes[into] += 1
+            sizes[bucket] = 0
+            level += 1
         for index in range(touched_count):
             cost[touched[index]] = np.inf
             settled[touched[index]] = False
