@@ -128,7 +128,19 @@ def transpose_cell(cell: Cell, max_jump: int | None = None) -> Cell | None:
     offset = int(lo.min())
     positions = np.arange(offset, int(hi.max()) + 1)
     local = (positions >= lo[:, None]) & (positions <= hi[:, None])  # [line, position]
-    parts = decompose(local.T, sweep_axis=0, max_jump=max_jump)
-    if len(parts) != 1:
+    # The runs of each line of the other axis (a position here), as ``free_intervals`` finds them.
+    padded = np.zeros((len(positions), len(lo) + 2), dtype=np.int8)
+    padded[:, 1:-1] = local.T
+    change = np.diff(padded, axis=1)
+    run_lines, starts = np.nonzero(change == 1)
+    _, ends = np.nonzero(change == -1)
+    if not np.array_equal(run_lines, np.arange(len(positions))):  # a line crossing it twice
         return None
-    return Cell(1 - cell.sweep_axis, offset + parts[0].first_line, parts[0].intervals + cell.first_line)
+    runs = np.column_stack((starts, ends - 1))
+    # Consecutive runs continue one cell (as in ``decompose``) when they overlap and, with
+    # ``max_jump``, neither end jumps further.
+    if np.any(runs[1:, 0] > runs[:-1, 1]) or np.any(runs[:-1, 0] > runs[1:, 1]):
+        return None
+    if max_jump is not None and len(runs) > 1 and np.abs(np.diff(runs, axis=0)).max() > max_jump:
+        return None
+    return Cell(1 - cell.sweep_axis, offset, runs + cell.first_line)

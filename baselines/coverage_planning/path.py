@@ -10,10 +10,11 @@ the robot takes to drive a path in metres.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
-from cabinbench.geometry import drop_redundant_points, points_to_segment, polyline_length, wrap_angle
+from cabinbench.geometry import drop_redundant_points, polyline_length, wrap_angle
 
-from .free_space import FreeSpace, segment_is_free
+from .free_space import FreeSpace, _segment_is_free
 
 # A corner is only cut out when the shortcut covers what the corner alone covered with this much
 # to spare (metres), so that a robot tracking the path a centimetre off still covers it.
@@ -44,79 +45,141 @@ def join(free_space: FreeSpace, start_pixel: tuple[int, int], sweeps: list[np.nd
 
 
 def drop_idle_corners(
-    path: np.ndarray,
-    free: np.ndarray,
-    radius_px: float,
-    margin_px: float = 0.0,
-    max_corners: int = 1,
-    max_passes: int = 4,
+    path: np.ndarray, free: np.ndarray, radius_px: float, margin_px: float = 0.0, max_passes: int = 4
 ) -> np.ndarray:
     """Shortcut the corners of a path wherever the shortcut loses no coverage.
 
-    Up to ``max_corners`` consecutive inner waypoints are cut out when the straight segment that
-    replaces them lies on free pixels and covers, within ``radius_px - margin_px``, every pixel
-    that only the replaced segments covered. This removes the detours that cover nothing new:
-    turns into cell corners that neighbouring passes already reach, staircases along edges that
-    other lanes sweep, and the corners between transits and sweeps. The first and last waypoints
+    An inner waypoint is cut out when the straight segment between its neighbours lies on free
+    pixels and covers, within ``radius_px - margin_px``, every pixel that only the two segments it
+    joined covered. This removes the detours that cover nothing new: turns into cell corners that
+    neighbouring passes already reach, staircases along edges that other lanes sweep, and the
+    corners between transits and sweeps. The waypoints are tried in order, a waypoint again after
+    its neighbour went, in up to ``max_passes`` passes over the path. The first and last waypoints
     stay.
     """
-    points = [np.asarray(point, dtype=float) for point in path]
+    points = np.asarray(path, dtype=float)
     if len(points) < 3:
         return path
-    shape = free.shape
-    footprints = [segment_footprint(a, b, radius_px, shape) for a, b in zip(points[:-1], points[1:])]
+    kept = _drop_idle_corners(points, free, float(radius_px), float(radius_px - margin_px), max_passes)
+    return points[kept]
+
+
+@njit(cache=True)
+def _drop_idle_corners(points, free, radius, reach, max_passes):
+    """``drop_idle_corners`` compiled (a building's path has tens of thousands of corners): the
+    indices of the waypoints kept. The path is a linked list (``following``, ``preceding``);
+    ``footprints[i]`` is the footprint of the segment from waypoint i to the next kept one and
+    ``counts`` how many segments cover each pixel."""
+    height, width = free.shape
+    count = len(points)
+    following, preceding = np.arange(1, count + 1), np.arange(-1, count - 1)
+    footprints = [
+        _segment_footprint(
+            points[i, 0], points[i, 1], points[i + 1, 0], points[i + 1, 1], radius, height, width
+        )
+        for i in range(count - 1)
+    ]
     counts = np.zeros(free.size, dtype=np.int32)
     for footprint in footprints:
-        counts[footprint] += 1  # a segment's footprint has no repeated pixel
-
-    def try_cut(first: int, count: int) -> bool:
-        """Replace corners first .. first + count - 1 by one segment if that loses nothing."""
-        before, after = points[first - 1], points[first + count]
-        detour = polyline_length(np.array(points[first - 1 : first + count + 1]))
-        if detour - np.hypot(*(after - before)) <= 1e-6 or not segment_is_free(free, before, after):
-            return False
-        replaced = footprints[first - 1 : first + count]
-        pixels, times = np.unique(np.concatenate(replaced), return_counts=True)
-        lost_rows, lost_cols = np.divmod(pixels[counts[pixels] == times], shape[1])
-        distances = points_to_segment(np.column_stack((lost_rows, lost_cols)), before, after)
-        if np.any(distances > radius_px - margin_px + 1e-9):
-            return False
-        shortcut = segment_footprint(before, after, radius_px, shape)
-        for footprint in replaced:
-            counts[footprint] -= 1
-        counts[shortcut] += 1
-        footprints[first - 1 : first + count] = [shortcut]
-        del points[first : first + count]
-        return True
-
+        for pixel in footprint:
+            counts[pixel] += 1  # a segment's footprint has no repeated pixel
+    mine = np.zeros(free.size, dtype=np.int32)  # how many of the two replaced segments cover a pixel
     for _ in range(max_passes):
         changed = False
-        k = 1
-        while k < len(points) - 1:
-            if any(try_cut(k, count) for count in range(1, max_corners + 1) if k + count < len(points)):
-                changed = True
-                continue  # the new corner at k may go as well
-            k += 1
+        corner = following[0]
+        while following[corner] < count:
+            before, after = preceding[corner], following[corner]
+            detour = np.sqrt(
+                (points[corner, 0] - points[before, 0]) ** 2 + (points[corner, 1] - points[before, 1]) ** 2
+            ) + np.sqrt(
+                (points[after, 0] - points[corner, 0]) ** 2 + (points[after, 1] - points[corner, 1]) ** 2
+            )
+            delta_row, delta_col = points[after, 0] - points[before, 0], points[after, 1] - points[before, 1]
+            if detour - np.hypot(delta_row, delta_col) <= 1e-6 or not _segment_is_free(
+                free, points[before, 0], points[before, 1], points[after, 0], points[after, 1]
+            ):
+                corner = after
+                continue
+            replaced = (footprints[before], footprints[corner])
+            for footprint in replaced:
+                for pixel in footprint:
+                    mine[pixel] += 1
+            # the pixels only the replaced segments cover must lie within reach of the shortcut
+            length2 = delta_row * delta_row + delta_col * delta_col
+            loses = False
+            for footprint in replaced:
+                for pixel in footprint:
+                    if loses or counts[pixel] != mine[pixel]:
+                        continue
+                    off_row, off_col = pixel // width - points[before, 0], pixel % width - points[before, 1]
+                    t = (
+                        0.0
+                        if length2 == 0
+                        else min(max((off_row * delta_row + off_col * delta_col) / length2, 0.0), 1.0)
+                    )
+                    loses = np.hypot(off_row - t * delta_row, off_col - t * delta_col) > reach + 1e-9
+            for footprint in replaced:
+                for pixel in footprint:
+                    mine[pixel] = 0
+            if loses:
+                corner = after
+                continue
+            shortcut = _segment_footprint(
+                points[before, 0],
+                points[before, 1],
+                points[after, 0],
+                points[after, 1],
+                radius,
+                height,
+                width,
+            )
+            for footprint in replaced:
+                for pixel in footprint:
+                    counts[pixel] -= 1
+            for pixel in shortcut:
+                counts[pixel] += 1
+            footprints[before] = shortcut
+            following[before], preceding[after] = after, before
+            changed = True
+            corner = after  # the new corner there may go as well
         if not changed:
             break
-    return np.array(points)
+    kept = [0]
+    while following[kept[-1]] < count:
+        kept.append(following[kept[-1]])
+    return np.array(kept)
 
 
 def segment_footprint(
     start: np.ndarray, end: np.ndarray, radius_px: float, shape: tuple[int, int]
 ) -> np.ndarray:
-    """Flat indices of the pixels whose centre lies within ``radius_px`` of the segment."""
+    """Flat indices of the pixels whose centre lies within ``radius_px`` of the segment (row by row)."""
     start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
-    low = np.maximum(np.floor(np.minimum(start, end) - radius_px), 0).astype(int)
-    high = np.minimum(np.ceil(np.maximum(start, end) + radius_px), np.array(shape) - 1).astype(int)
-    rows = np.arange(low[0], high[0] + 1, dtype=float)[:, None] - start[0]
-    cols = np.arange(low[1], high[1] + 1, dtype=float)[None, :] - start[1]
-    delta = end - start
-    length2 = float(delta @ delta)
-    t = 0.0 if length2 == 0 else np.clip((rows * delta[0] + cols * delta[1]) / length2, 0.0, 1.0)
-    inside = (rows - t * delta[0]) ** 2 + (cols - t * delta[1]) ** 2 <= radius_px**2 + 1e-9
-    hit_rows, hit_cols = np.nonzero(inside)
-    return (hit_rows + low[0]) * shape[1] + hit_cols + low[1]
+    return _segment_footprint(start[0], start[1], end[0], end[1], float(radius_px), shape[0], shape[1])
+
+
+@njit(cache=True)
+def _segment_footprint(start_row, start_col, end_row, end_col, radius, height, width):
+    """``segment_footprint`` compiled: a building's plan takes the footprints of tens of thousands of
+    segments."""
+    low_row = max(int(np.floor(min(start_row, end_row) - radius)), 0)
+    low_col = max(int(np.floor(min(start_col, end_col) - radius)), 0)
+    high_row = min(int(np.ceil(max(start_row, end_row) + radius)), height - 1)
+    high_col = min(int(np.ceil(max(start_col, end_col) + radius)), width - 1)
+    delta_row, delta_col = end_row - start_row, end_col - start_col
+    length2 = delta_row * delta_row + delta_col * delta_col
+    pixels = np.empty(max(high_row - low_row + 1, 0) * max(high_col - low_col + 1, 0), dtype=np.int64)
+    count = 0
+    for row in range(low_row, high_row + 1):
+        rows = row - start_row
+        for col in range(low_col, high_col + 1):
+            cols = col - start_col
+            t = 0.0 if length2 == 0 else min(max((rows * delta_row + cols * delta_col) / length2, 0.0), 1.0)
+            off_row, off_col = rows - t * delta_row, cols - t * delta_col
+            if off_row * off_row + off_col * off_col <= radius * radius + 1e-9:
+                pixels[count] = row * width + col
+                count += 1
+    return pixels[:count]
 
 
 def path_coverage(pixel_path: np.ndarray, coverable: np.ndarray, radius_px: float) -> float:
