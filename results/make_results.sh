@@ -89,7 +89,7 @@ fi
 
 # The suites (benchmark protocol v1): one episode on every layout of cabin-v1-test, then of cabin-v1-ood, each
 # from start poses drawn from the episode's seed (a team's robots too: each drives from where it stands to the
-# start of its share); the classic baselines first, then the shipped policy.
+# start of its share); the classic baselines first, then the shipped policies.
 suite_run() { printf -v arguments '%q ' "$@"; echo "python -m cabinbench.run --seed 0 --out results/runs $arguments> /dev/null" >> "$queue"; }
 for suite in cabin-v1-test cabin-v1-ood; do
   if $classic; then
@@ -100,6 +100,9 @@ for suite in cabin-v1-test cabin-v1-ood; do
   fi
   if [ -f baselines/ppo_gail/checkpoints/ppo_gail.pt ]; then
     suite_run --suite "$suite" --baseline ppo_gail
+  fi
+  if [ -f baselines/ppo_gail/checkpoints/ppo_gail_study_cleaning.pt ]; then
+    suite_run --suite "$suite" --baseline ppo_gail_study
   fi
 done
 
