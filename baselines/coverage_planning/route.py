@@ -124,15 +124,31 @@ def _greedy(groups, costs: RouteCosts) -> list[tuple[int, int]]:
 
 def _near_units(distances: np.ndarray, variant_count: int, exhaustive: bool) -> np.ndarray:
     """``near[0]``: the ``NEIGHBOUR_UNITS`` units whose entries lie nearest the start; ``near[1 + s]``:
-    those nearest the entry of step s (unordered). With ``exhaustive``, no columns: every move is tried."""
+    those nearest the entry of step s (by distance, then unit). With ``exhaustive``, no columns:
+    every move is tried."""
     points = distances.shape[0]
     unit_count = (points - 1) // variant_count
     if exhaustive or unit_count <= NEIGHBOUR_UNITS:
         return np.empty((points, 0), dtype=np.int64)
-    near = np.empty((points, NEIGHBOUR_UNITS), dtype=np.int64)
-    for first in range(0, points, 1024):  # rows a block at a time: the matrix is hundreds of MB
-        rows = distances[first : first + 1024, 1:].reshape(-1, unit_count, variant_count).min(axis=2)
-        near[first : first + 1024] = np.argpartition(rows, NEIGHBOUR_UNITS, axis=1)[:, :NEIGHBOUR_UNITS]
+    return _nearest_units(distances, variant_count, NEIGHBOUR_UNITS)
+
+
+@njit(cache=True)
+def _nearest_units(distances, variant_count, count):
+    """``_near_units`` compiled (a building's matrix holds tens of millions of distances)."""
+    unit_count = (distances.shape[0] - 1) // variant_count
+    near = np.empty((distances.shape[0], count), dtype=np.int64)
+    nearest = np.empty(count)
+    for point in range(distances.shape[0]):
+        nearest[:] = np.inf
+        for unit in range(unit_count):
+            distance = distances[point, 1 + unit * variant_count : 1 + (unit + 1) * variant_count].min()
+            if distance < nearest[count - 1]:  # insert it in order; the earlier unit stays on ties
+                slot = count - 1
+                while slot > 0 and nearest[slot - 1] > distance:
+                    nearest[slot], near[point, slot] = nearest[slot - 1], near[point, slot - 1]
+                    slot -= 1
+                nearest[slot], near[point, slot] = distance, unit
     return near
 
 
