@@ -18,7 +18,8 @@ declare it as a :class:`~cabinbench.layout_fields.LayoutKind`, and add that to
 :data:`LAYOUT_KINDS` below. Only this module reads layout files; the kinds see parsed YAML.
 
 Every kind may also set ``robot``, ``cells`` (not a kind that derives its own, like ``cabin``
-from ``rows_per_cell``), ``goals``, ``start``, ``max_steps``, ``success_coverage``,
+from ``rows_per_cell``; ``cells: auto`` splits an ``occupancy`` map into bays,
+:mod:`cabinbench.layout_bays`), ``goals``, ``start``, ``max_steps``, ``success_coverage``,
 ``cleared_cells``, ``description`` and ``source``. :func:`load_layout` validates everything and
 raises :class:`LayoutError` naming the file, the field, the problem and the fix.
 
@@ -43,6 +44,7 @@ from matplotlib.path import Path as PolygonPath
 from scipy import ndimage
 
 from .geometry import resample_raster, world_to_pixel
+from .layout_bays import AUTO, auto_cells
 from .layout_cabin import CABIN
 from .layout_fields import (
     CONTACT_CLEARANCE,
@@ -403,12 +405,18 @@ def build_layout(spec: dict, source: str, default_name: str, text: str) -> Layou
     robot = check.robot(spec.get("robot", {}))
     geometry = kind.build(check, spec[kind_name], robot)
     boundary, obstacles, cells = geometry.boundary, geometry.obstacles, geometry.cells
-    if cells is None:
-        cells = check.cells(spec.get("cells"), boundary)
+    given_start = check.start(spec["start"], None) if "start" in spec else None
+    if cells is None and spec.get("cells") == AUTO:
+        if geometry.raster is None:
+            check.fail("cells", f"auto needs a map, and a {kind_name} layout has none", "list the cells")
+        (xmin, ymin), (xmax, ymax) = boundary.min(axis=0), boundary.max(axis=0)
+        extent = (float(xmin), float(ymin), float(xmax), float(ymax))
+        cells, start = auto_cells(check, geometry.raster.clearance, extent, robot, given_start)
+    else:
+        cells = cells if cells is not None else check.cells(spec.get("cells"), boundary)
+        start = given_start or check.start(None, geometry.start)
     if "goals" in spec:
         cells = _assign_goals(check, spec["goals"], cells)
-
-    start = check.start(spec.get("start"), geometry.start)
     layout = Layout(
         name=check.string(spec.get("name", default_name), "name"),
         kind=kind_name,

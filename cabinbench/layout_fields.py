@@ -147,7 +147,8 @@ class FieldChecker:
             self.fail(
                 "cells",
                 "expected a non-empty list",
-                "list cells in visit order as {name, rect: [xmin, ymin, xmax, ymax]}",
+                "list cells in visit order as {name, rect: [xmin, ymin, xmax, ymax]}, or (an occupancy "
+                "map) write cells: auto",
             )
         cells = []
         for index, item in enumerate(value):

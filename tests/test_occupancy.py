@@ -1,6 +1,7 @@
 """ROS occupancy maps as layouts: map_server's pixel classes, the image formats, speckles, the default
-start, every entry point that takes a layout, the export round trip of every built-in layout, and
-the lidar on a building map (tests/test_lidar.py compares rays with pymunk's)."""
+start, every entry point that takes a layout, the export round trip of every built-in layout, a
+building split into bays by ``cells: auto``, and the lidar on a building map (tests/test_lidar.py
+compares rays with pymunk's)."""
 
 import subprocess
 import sys
@@ -11,11 +12,14 @@ import numpy as np
 import pytest
 import yaml
 from PIL import Image
+from scipy import ndimage
 
 import cabinbench  # noqa: F401  (registers the envs)
 from cabinbench import env as aec_env
 from cabinbench import parallel_env
-from cabinbench.layout import available_layouts, load_layout, parse_layout
+from cabinbench.building_maps import office_floor, write_building
+from cabinbench.episodes import run_episode
+from cabinbench.layout import LayoutError, available_layouts, load_layout, parse_layout
 from cabinbench.layouts import main as layouts_main
 from cabinbench.rosmap import occupancy_values
 
@@ -181,3 +185,66 @@ def test_export_round_trips_every_builtin_layout(tmp_path, name):
     assert back.extent == pytest.approx(layout.extent, abs=0.01)  # whole 1 cm pixels
     assert back.free_area == pytest.approx(layout.free_area, rel=0.01)
     assert back.coverable_area == pytest.approx(layout.coverable_area, rel=0.01)
+
+
+def office_with_bays(folder: Path, width: float = 20.0, **fields) -> Path:
+    """The shipped office floor's drawing (``width`` m wide) as an occupancy layout with ``cells: auto``."""
+    map_path = write_building(folder, "office", office_floor(width, 13.0))
+    spec = {"kind": "occupancy", "occupancy": yaml.safe_load(map_path.read_text()), "cells": "auto", **fields}
+    (folder / "office_bays.yaml").write_text(yaml.safe_dump(spec))
+    return folder / "office_bays.yaml"
+
+
+def test_cells_auto_splits_the_office_floor_into_bays_at_the_walls_between_its_offices(tmp_path):
+    layout = load_layout(office_with_bays(tmp_path))
+    # Four columns of 4 m offices on both sides of the corridor, then the open end: five bays, each
+    # cut at a wall between two columns of offices, so no office is split.
+    assert [cell.name for cell in layout.cells] == [f"bay_{index}" for index in range(5)]
+    xmin, ymin, xmax, ymax = layout.extent
+    edges = [cell.rect[0] for cell in layout.cells] + [layout.cells[-1].rect[2]]
+    assert (
+        edges[0] == xmin
+        and edges[-1] == xmax
+        and all(cell.rect[1::2] == (ymin, ymax) for cell in layout.cells)
+    )
+    walls = ~layout.free_raster.any(
+        axis=0
+    )  # raster columns that are wall from top to bottom but the corridor
+    for cut in edges[1:-1]:
+        column = round((cut - xmin) / 0.05)
+        crossing = layout.free_raster[:, column - 1] | layout.free_raster[:, column]
+        assert not walls[column] and crossing.sum() * 0.05 < 3.0  # only the 2 m corridor crosses it
+    # the robot starts in the first bay; each bay leads into the next through the corridor, and its
+    # floor is one piece
+    assert layout.cell_raster[layout.to_pixel(*layout.start[:2])] == 0
+    assert [len(passage.exits) for passage in layout.passages] == [1, 1, 1, 1]
+    for index in range(5):
+        floor = layout.coverable_raster & (layout.cell_raster == index)
+        assert ndimage.label(floor)[1] == 1
+    again = load_layout(office_with_bays(tmp_path))
+    assert [cell.rect for cell in again.cells] == [cell.rect for cell in layout.cells]
+
+
+def test_a_start_in_the_last_bay_visits_the_bays_the_other_way(tmp_path):
+    first = load_layout(office_with_bays(tmp_path)).cells
+    layout = load_layout(office_with_bays(tmp_path, start=[19.0, 6.5]))
+    assert [cell.rect for cell in layout.cells] == [cell.rect for cell in reversed(first)]
+    assert layout.cell_raster[layout.to_pixel(19.0, 6.5)] == 0
+
+
+def test_the_sequential_protocol_cleans_a_building_bay_by_bay(tmp_path):
+    layout = load_layout(office_with_bays(tmp_path, width=9.0, max_steps=20000))
+    assert len(layout.cells) == 2
+    record, _ = run_episode("boustrophedon", layout, 0, protocol="sequential")
+    assert record["success"] and record["cells_cleared"] == 2 and record["bound_violations"] == 0
+
+
+def test_cells_auto_refuses_what_it_cannot_split_in_one_line(tmp_path):
+    middle = office_with_bays(tmp_path, start=[10.5, 6.5])  # in the third of five bays
+    no_map = tmp_path / "room.yaml"
+    room = {"boundary": [[0, 0], [4, 0], [4, 3], [0, 3]]}
+    no_map.write_text(yaml.safe_dump({"kind": "polygons", "polygons": room, "cells": "auto"}))
+    for path, field in ((middle, "start"), (no_map, "cells")):
+        with pytest.raises(LayoutError) as error:
+            load_layout(path)
+        assert error.value.field_name == field and "\n" not in str(error.value)
