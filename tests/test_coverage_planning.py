@@ -39,6 +39,7 @@ from cabinbench.baselines.coverage_planning import (
 )
 from cabinbench.baselines.coverage_planning import plan as plan_module
 from cabinbench.baselines.path_following import PathFollower
+from cabinbench.cli import UsageError
 from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.geometry import offsets_from_segments, world_to_pixel
 from cabinbench.world import TIME_STEP
@@ -584,6 +585,16 @@ def test_a_long_route_searched_by_neighbour_lists_is_as_short_as_an_exhaustive_o
         assert {unit for unit, _ in tour[-20:]} == last
     assert by_neighbours != exhaustive  # the neighbour lists searched differently
     assert length(by_neighbours) <= 1.02 * length(exhaustive)
+
+
+def test_a_floor_too_large_to_route_in_one_piece_is_refused_in_one_line(monkeypatch):
+    # On a machine without memory even a small room's distance tables do not fit.
+    free_space = importlib.import_module("cabinbench.baselines.coverage_planning.free_space")
+    page = os.sysconf("SC_PAGE_SIZE")
+    monkeypatch.setattr(free_space.os, "sysconf", lambda name: page if name == "SC_PAGE_SIZE" else 0)
+    with pytest.raises(UsageError, match="distance tables need about .* split it into cells") as error:
+        plan_coverage(np.ones((40, 40), dtype=bool), RESOLUTION, ORIGIN, TOOL_WIDTH, (1.0, 1.0))
+    assert "\n" not in str(error.value)
 
 
 def test_per_cell_direction_beats_a_single_axis():

@@ -11,12 +11,15 @@ shortcuts) and geodesic distances between pixels (the route's costs).
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
 from functools import cached_property
 
 import numpy as np
 from numba import njit
 from scipy import sparse
+
+from cabinbench.cli import UsageError
 
 SQRT2 = math.sqrt(2.0)
 
@@ -164,6 +167,7 @@ class FreeSpace:
         pixels = np.asarray(pixels, dtype=np.int64)
         flat = (pixels[:, 0] + 1) * self.padded_width + pixels[:, 1] + 1
         sources, inverse = np.unique(flat, return_inverse=True)
+        _refuse_tables_too_large(len(pixels), len(sources))
         scratch = self._scratch
         distances = _bounded_distances(
             self.free_flat,
@@ -173,6 +177,20 @@ class FreeSpace:
             *(scratch.cost, scratch.closed, scratch.target),
         )
         return _spread(distances, inverse.ravel(), pixels, self.search_radius_px)
+
+
+def _refuse_tables_too_large(points: int, sources: int) -> None:
+    """Refuse, before allocating them, distance tables larger than this machine's memory (a whole
+    campus floor planned as one cell): a clear line instead of a MemoryError."""
+    needed = 8 * (points**2 + sources**2)
+    available = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    if needed > available:
+        raise UsageError(
+            f"planning this floor in one piece routes between {points:,} points, whose distance tables "
+            f"need about {needed / 2**30:.0f} GB, more than this machine's {available / 2**30:.0f} GB: "
+            "split it into cells (an occupancy map: cells: auto) and plan it cell by cell (the "
+            "sequential protocol), or crop the map"
+        )
 
 
 class _Scratch:
