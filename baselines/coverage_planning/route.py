@@ -26,9 +26,9 @@ from cabinbench.geometry import polyline_length
 # 1.5 m to 8 m give plans within 1% of each other on the built-in layouts.
 ROUTING_SEARCH_RADIUS_M = 3.0
 # Each pass of 2-opt and Or-opt tries every pair of route positions: milliseconds for a cabin's
-# tens of units or a small building's hundreds, but most of a large building's planning time
-# (2,400 units: 11 s). Longer routes try only the moves that link a unit to one of its nearest
-# units (neighbour lists, as in Lin-Kernighan codes); an improving move almost always makes such a link.
+# tens of units or a small building's hundreds, but most of the planning time of a building with
+# thousands. Longer routes try only the moves that link a unit to one of its nearest units
+# (neighbour lists, as in Lin-Kernighan codes): an improving move nearly always makes such a link.
 EXHAUSTIVE_ROUTE_UNITS = 500
 NEIGHBOUR_UNITS = 16
 
