@@ -149,6 +149,8 @@ def test_a_training_sweep_on_ray_writes_each_seed_as_a_local_run_would(cluster, 
         "--seeds",
         "0",
         "1",
+        "--run-dir",
+        "swept",
         "--executor",
         "ray",
         "--address",
@@ -157,14 +159,14 @@ def test_a_training_sweep_on_ray_writes_each_seed_as_a_local_run_would(cluster, 
     completed = command("cabinbench.train", sweep, remote)
     assert completed.returncode == 0, completed.stderr
     for seed in (0, 1):
-        assert f"seed {seed}: done (runs/train/ppo__seed{seed})" in completed.stderr
-    single, swept = local / "runs/train/ppo__seed1", remote / "runs/train/ppo__seed1"
+        assert f"seed {seed}: done (swept/ppo__seed{seed})" in completed.stderr
+    single, swept = local / "runs/train/ppo__seed1", remote / "swept/ppo__seed1"
     assert sorted(p.relative_to(swept) for p in swept.rglob("*")) == sorted(
         p.relative_to(single) for p in single.rglob("*")
     )
     assert (swept / "config.json").read_text() == (single / "config.json").read_text()
     assert metrics(swept) == metrics(single) and len(metrics(swept)) == 2
-    assert metrics(remote / "runs/train/ppo__seed0") != metrics(swept)  # another seed, another run
+    assert metrics(remote / "swept/ppo__seed0") != metrics(swept)  # another seed, another run
 
 
 def test_an_interrupted_sweep_resumes_the_unfinished_seeds_from_their_checkpoints(tmp_path):

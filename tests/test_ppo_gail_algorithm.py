@@ -209,7 +209,8 @@ def test_curiosity_forward_loss_decreases_on_fixed_data(demonstrations):
     alg = make_runner("ppo_icm", demonstrations).alg
     states, actions, next_states = fixed_transitions()
 
-    losses = [alg.update_curiosity(states, actions, next_states) for _ in range(10)]
+    full_batches = [torch.arange(states.shape[0])] * 12  # an update's worth of optimiser steps
+    losses = [alg.update_curiosity(states, actions, next_states, full_batches) for _ in range(10)]
 
     assert losses[-1]["curiosity_forward"] < 0.5 * losses[0]["curiosity_forward"]
     assert losses[-1]["curiosity_inverse"] < losses[0]["curiosity_inverse"]
@@ -223,8 +224,10 @@ def test_discriminator_separates_expert_from_random_pairs(demonstrations, tmp_pa
     num_expert = alg.expert_observations.shape[0]
     agent_states = torch.cat([alg.expert_observations, random_states(num_expert, generator)])
     agent_actions = torch.rand(2 * num_expert, 2, generator=generator) * 2 - 1
+    batches = list(torch.arange(agent_states.shape[0]).chunk(4)) * 3
     for _ in range(20):
-        alg.update_discriminator(agent_states, agent_actions)
+        expert = [torch.randint(num_expert, (batch.numel(),), generator=generator) for batch in batches]
+        alg.update_discriminator(agent_states, agent_actions, batches, expert)
 
     held_out = tmp_path / "held_out.npz"
     record_demonstrations(held_out, num_envs=32, num_steps=50, seed=456)

@@ -224,6 +224,39 @@ def test_training_with_a_coverage_patch_keeps_it_from_the_icm_and_the_discrimina
     assert exported["observation_config"]["size"] == env.observation_space.shape[0]
 
 
+def test_the_results_do_not_depend_on_the_cores_the_training_uses(tmp_path):
+    """With ``workers=2`` the envs step in two processes and the ICM and the discriminator train in a thread
+    beside PPO: every metric and every tensor of every checkpoint (networks, optimisers, normalisers) is the
+    one-core run's."""
+    for workers in (1, 2):
+        config = tiny_config(workers=workers, coverage_patch=4, validation_episodes=0)
+        training.train(config, tmp_path / f"cores{workers}", progress=False)
+    one, two = tmp_path / "cores1", tmp_path / "cores2"
+    untimed = [
+        [
+            {k: v for k, v in row.items() if not k.endswith("time")}
+            for row in training.read_metrics(run / "metrics.csv")
+        ]
+        for run in (one, two)
+    ]
+    assert untimed[0] == untimed[1] and len(untimed[0]) == 3
+    assert (one / "config.json").read_text() == (two / "config.json").read_text()  # workers is not recorded
+    checkpoints = sorted(path.name for path in (one / "checkpoints").glob("*.pt"))
+    assert checkpoints == sorted(path.name for path in (two / "checkpoints").glob("*.pt")) and checkpoints
+    for name in checkpoints:
+        tensors = [_tensors(torch.load(run / "checkpoints" / name, weights_only=True)) for run in (one, two)]
+        assert tensors[0].keys() == tensors[1].keys() and len(tensors[0]) > 20
+        assert all(torch.equal(tensors[0][key], tensors[1][key]) for key in tensors[0]), name
+
+
+def _tensors(value, path: str = "") -> dict[str, torch.Tensor]:
+    """Every tensor in a nested checkpoint dict, by its path."""
+    if isinstance(value, torch.Tensor):
+        return {path: value}
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    return {key: tensor for name, item in items for key, tensor in _tensors(item, f"{path}/{name}").items()}
+
+
 def _input_size(state_dict: dict) -> int:
     """Inputs of a network's first layer: the first weight matrix in its state dict."""
     return next(value for key, value in state_dict.items() if key.endswith("weight")).shape[1]

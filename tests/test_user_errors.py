@@ -174,10 +174,6 @@ CASES = {
         ["train", "--baseline", "ppo", "--seed", "1", "--seeds", "0", "1"],
         ["--seed", "give the seeds with --seeds alone"],
     ),
-    "train: one --run-dir for several seeds": (
-        ["train", "--baseline", "ppo", "--seeds", "0", "1", "--run-dir", "here"],
-        ["--run-dir", "each seed of a sweep has its own"],
-    ),
     "train: --executor without --seeds": (
         ["train", "--baseline", "ppo", "--executor", "ray"],
         ["--executor and --address run the seeds of --seeds"],

@@ -23,7 +23,8 @@ The four ablations of the study are this one class with different flags, see ``A
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 
 import torch
 import torch.nn as nn
@@ -276,6 +277,8 @@ class PPOCuriosityGail(PPO):
         expert_demonstrations: Sequence[str | os.PathLike] = (),
         expected_observation_config: dict | str | None = None,
         shaping_columns: Sequence[int] | None = None,
+        shaping_epochs: int | None = None,
+        shaping_update_thread: bool = False,
         **ppo_kwargs,
     ) -> None:
         """Build PPO and the enabled reward modules.
@@ -302,6 +305,12 @@ class PPOCuriosityGail(PPO):
                 (None: all of it). Training leaves out the coverage patch: the expert's patches show its own
                 sweep, which the discriminator would tell from the agent's by the patch alone, whatever the
                 agent does.
+            shaping_epochs: Epochs of the ICM and discriminator updates per iteration, over PPO's mini-batches
+                (None: PPO's ``num_learning_epochs``).
+            shaping_update_thread: Train the ICM and the discriminator in a thread of their own while PPO
+                trains (a second core's work; torch runs its kernels outside Python's lock). The results do
+                not change: every random draw of their updates is made before PPO's, in the order of the
+                sequential update, and each module only reads the rollout.
             ppo_kwargs: Passed to ``PPO`` (gamma, lam, learning_rate, ..., device, multi_gpu_cfg).
         """
         super().__init__(actor, critic, storage, **ppo_kwargs)
@@ -314,6 +323,9 @@ class PPOCuriosityGail(PPO):
         self.curiosity_forward_weight = curiosity_forward_weight
         self.gail_strength = gail_strength
         self.gail_gradient_penalty = gail_gradient_penalty
+        self.shaping_epochs = self.num_learning_epochs if shaping_epochs is None else shaping_epochs
+        if self.shaping_epochs < 1:
+            raise ValueError(f"shaping_epochs must be positive, got {shaping_epochs}")
 
         observation_dim = sum(storage.observations[group].shape[-1] for group in self._raw_actor.obs_groups)
         self.shaping_columns = (
@@ -350,6 +362,9 @@ class PPOCuriosityGail(PPO):
                 self.discriminator.parameters(), lr=gail_learning_rate
             )
             self.gail_rewards = torch.zeros(rollout_shape, device=self.device)
+
+        has_shaping = self.curiosity is not None or self.discriminator is not None
+        self.shaping_thread = ThreadPoolExecutor(1) if shaping_update_thread and has_shaping else None
 
     # --- Rollout --------------------------------------------------------------------------------------------
 
@@ -394,73 +409,103 @@ class PPOCuriosityGail(PPO):
     # --- Learning -------------------------------------------------------------------------------------------
 
     def update(self) -> dict[str, float]:
-        """Train the ICM and the discriminator on the collected rollout, then run the PPO update.
+        """Train the ICM and the discriminator on the collected rollout, and run the PPO update.
 
         Returns PPO's losses plus ``curiosity_forward``, ``curiosity_inverse``, ``curiosity_reward`` (mean per
         step) and ``gail_discriminator``, ``gail_gradient_penalty``, ``gail_accuracy``, ``gail_reward`` (mean
         per step) for the enabled modules; the runner logs them all under ``Loss/``.
         """
-        extra_losses = {}
+        shaping_updates: list[Callable[[], dict[str, float]]] = []
         if self.curiosity is not None or self.discriminator is not None:
             states = self._shaping_observation(self.storage.observations).flatten(0, 1)
             actions = self.storage.actions.flatten(0, 1).clamp(-ACTION_LIMIT, ACTION_LIMIT)
+        # The mini-batches are drawn here, before PPO draws its own, so a thread gives the same updates.
         if self.curiosity is not None:
             # Transitions into a reset observation carry no information about the dynamics.
             not_done = (self.storage.dones == 0).flatten()
-            next_states = self.next_states.flatten(0, 1)
-            extra_losses |= self.update_curiosity(states[not_done], actions[not_done], next_states[not_done])
-            extra_losses["curiosity_reward"] = self.curiosity_rewards.mean().item()
+            curiosity_data = (states[not_done], actions[not_done], self.next_states.flatten(0, 1)[not_done])
+            curiosity_batches = [
+                batch
+                for _ in range(self.shaping_epochs)
+                for batch in self._shuffled_batches(int(not_done.sum()))
+            ]
+            curiosity_reward = self.curiosity_rewards.mean().item()
+            shaping_updates.append(
+                lambda: (
+                    self.update_curiosity(*curiosity_data, curiosity_batches)
+                    | {"curiosity_reward": curiosity_reward}
+                )
+            )
         if self.discriminator is not None:
-            extra_losses |= self.update_discriminator(states, actions)
-            extra_losses["gail_reward"] = self.gail_rewards.mean().item()
-        # PPO's update also clears the storage, so it runs last.
-        return super().update() | extra_losses
+            agent_batches, expert_batches = [], []
+            for _ in range(self.shaping_epochs):
+                for batch in self._shuffled_batches(states.shape[0]):
+                    agent_batches.append(batch)
+                    expert_batches.append(
+                        torch.randint(self.expert_observations.shape[0], (batch.numel(),), device=self.device)
+                    )
+            gail_reward = self.gail_rewards.mean().item()
+            shaping_updates.append(
+                lambda: (
+                    self.update_discriminator(states, actions, agent_batches, expert_batches)
+                    | {"gail_reward": gail_reward}
+                )
+            )
+        extra_losses = {}
+        if self.shaping_thread is None:
+            for shaping_update in shaping_updates:
+                extra_losses |= shaping_update()
+            return super().update() | extra_losses  # PPO's update also clears the storage, so it runs last
+        beside = self.shaping_thread.submit(lambda: [shaping_update() for shaping_update in shaping_updates])
+        ppo_losses = super().update()
+        for losses in beside.result():
+            extra_losses |= losses
+        return ppo_losses | extra_losses
 
     def update_curiosity(
-        self, states: torch.Tensor, actions: torch.Tensor, next_states: torch.Tensor
+        self,
+        states: torch.Tensor,
+        actions: torch.Tensor,
+        next_states: torch.Tensor,
+        batches: Sequence[torch.Tensor],
     ) -> dict[str, float]:
-        """Minimise (1 - beta) L_I + beta L_F (Pathak et al. 2017, Eq. 7) over PPO's epochs and
-        mini-batches."""
+        """Minimise (1 - beta) L_I + beta L_F (Pathak et al. 2017, Eq. 7), one optimiser step per mini-batch
+        of ``batches`` (indices of the transitions)."""
         forward_losses, inverse_losses = [], []
-        for _ in range(self.num_learning_epochs):
-            for batch in self._mini_batch_indices(states.shape[0]):
-                forward_loss, inverse_loss = self.curiosity.losses(
-                    states[batch], actions[batch], next_states[batch]
-                )
-                beta = self.curiosity_forward_weight
-                loss = (1.0 - beta) * inverse_loss + beta * forward_loss
-                self.curiosity_optimizer.zero_grad()
-                loss.backward()
-                self.curiosity_optimizer.step()
-                forward_losses.append(forward_loss.item())
-                inverse_losses.append(inverse_loss.item())
+        for batch in batches:
+            forward_loss, inverse_loss = self.curiosity.losses(
+                states[batch], actions[batch], next_states[batch]
+            )
+            beta = self.curiosity_forward_weight
+            loss = (1.0 - beta) * inverse_loss + beta * forward_loss
+            self.curiosity_optimizer.zero_grad()
+            loss.backward()
+            self.curiosity_optimizer.step()
+            forward_losses.append(forward_loss.item())
+            inverse_losses.append(inverse_loss.item())
         return {"curiosity_forward": _mean(forward_losses), "curiosity_inverse": _mean(inverse_losses)}
 
-    def update_discriminator(self, states: torch.Tensor, actions: torch.Tensor) -> dict[str, float]:
-        """Train D to tell expert pairs (label 1) from the agent's (label 0) over PPO's epochs and
-        mini-batches.
-
-        Each agent mini-batch is paired with an equally large random sample of expert pairs.
-        """
+    def update_discriminator(
+        self,
+        states: torch.Tensor,
+        actions: torch.Tensor,
+        batches: Sequence[torch.Tensor],
+        expert_batches: Sequence[torch.Tensor],
+    ) -> dict[str, float]:
+        """Train D to tell expert pairs (label 1) from the agent's (label 0), one optimiser step per agent
+        mini-batch of ``batches``, each paired with the expert pairs of ``expert_batches`` (as many)."""
         bce_losses, penalties, accuracies = [], [], []
-        for _ in range(self.num_learning_epochs):
-            for batch in self._mini_batch_indices(states.shape[0]):
-                expert = torch.randint(
-                    self.expert_observations.shape[0], (batch.numel(),), device=self.device
-                )
-                bce, gradient_penalty, accuracy = self.discriminator.losses(
-                    states[batch],
-                    actions[batch],
-                    self.expert_observations[expert],
-                    self.expert_actions[expert],
-                )
-                loss = bce + self.gail_gradient_penalty * gradient_penalty
-                self.discriminator_optimizer.zero_grad()
-                loss.backward()
-                self.discriminator_optimizer.step()
-                bce_losses.append(bce.item())
-                penalties.append(gradient_penalty.item())
-                accuracies.append(accuracy.item())
+        for batch, expert in zip(batches, expert_batches, strict=True):
+            bce, gradient_penalty, accuracy = self.discriminator.losses(
+                states[batch], actions[batch], self.expert_observations[expert], self.expert_actions[expert]
+            )
+            loss = bce + self.gail_gradient_penalty * gradient_penalty
+            self.discriminator_optimizer.zero_grad()
+            loss.backward()
+            self.discriminator_optimizer.step()
+            bce_losses.append(bce.item())
+            penalties.append(gradient_penalty.item())
+            accuracies.append(accuracy.item())
         return {
             "gail_discriminator": _mean(bce_losses),
             "gail_gradient_penalty": _mean(penalties),
@@ -506,8 +551,8 @@ class PPOCuriosityGail(PPO):
     def _shaping_part(self, observations: torch.Tensor) -> torch.Tensor:
         return observations if self.shaping_columns is None else observations[..., self.shaping_columns]
 
-    def _mini_batch_indices(self, num_samples: int) -> tuple[torch.Tensor, ...]:
-        """Shuffled indices split into PPO's number of mini-batches."""
+    def _shuffled_batches(self, num_samples: int) -> tuple[torch.Tensor, ...]:
+        """One epoch's mini-batches: shuffled indices split into PPO's number of mini-batches."""
         return torch.randperm(num_samples, device=self.device).chunk(self.num_mini_batches)
 
 

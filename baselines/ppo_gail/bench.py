@@ -74,6 +74,8 @@ def bench_iteration(iterations: int = 3, warmup: int = 1) -> dict[str, dict[str,
                             "total": rollout + update,
                         }
                     )
+        for runner, _ in timed.values():
+            runner.env.close()
     return {
         ablation: min(iterations_timed, key=lambda seconds: seconds["total"])
         for ablation, (_, iterations_timed) in timed.items()

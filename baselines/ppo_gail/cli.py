@@ -8,7 +8,7 @@
         [--steps-per-env N] [--seed S]
         [--reward paper|coverage] [--[no-]terminate-on-bound] [--max-steps N] [--algorithm JSON]
         [--min-action-std X] [--coverage-patch N] [--coverage-patch-cell M] [--[no-]random-start]
-        [--threads N] [--save-interval N] [--validation-episodes N] [--export last|best]
+        [--threads N] [--workers N] [--save-interval N] [--validation-episodes N] [--export last|best]
         [--demonstrations FILE.npz ...] [--demo-episodes N] [--demo-action-noise STD]
         [--run-dir DIR] [--resume] [--export-latest] [--ship [--ship-dir DIR]] [--keep] [--no-progress]
         [--seeds S ... [--executor local|ray [--address A]]]
@@ -46,9 +46,10 @@ curves. ``--keep`` copies the policy, ``config.json``, ``metrics.csv`` and ``val
 ``results/training/<baseline>/seed<S>/``: a further training run of the same command, which
 ``results/make_results.sh`` scores into ``results/ablation.md``.
 
-``--seeds S ...`` trains one run per seed at once, each exactly as ``--seed S`` would, in its own default run
-directory (one CPU each): in local processes, or with ``--executor ray`` as Ray tasks on the cluster at
-``--address`` (or a local Ray instance; on several nodes the run directories must be on a shared filesystem).
+``--seeds S ...`` trains one run per seed at once, each exactly as ``--seed S`` would, in its own run
+directory ``<name>__seed<S>`` in the folder ``--run-dir`` (default ``runs/train``), one CPU each
+(``--workers``): in local processes, or with ``--executor ray`` as Ray tasks on the cluster at ``--address``
+(or a local Ray instance; on several nodes the run directories must be on a shared filesystem).
 An interrupted sweep continues with the same command and ``--resume``: each unfinished seed resumes from its
 latest checkpoint, a finished one is only exported again.
 
@@ -115,6 +116,12 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--reward", choices=REWARD_PRESETS, help="reward preset of the training envs")
     parser.add_argument("--max-steps", type=int, help="episode step limit (default: each layout's)")
     parser.add_argument("--threads", type=int, help="torch threads")
+    parser.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="cores the training uses (default 0: every core; a seed of --seeds: 1); results do not change",
+    )
     parser.add_argument("--save-interval", type=int, help="checkpoint every N iterations")
     parser.add_argument(
         "--validation-episodes",
@@ -181,7 +188,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         metavar="FILE|NAME",
         help='policy file (or shipped name) the actor starts from (default ppo_gail; "" : random weights)',
     )
-    parser.add_argument("--run-dir", help="run directory (default runs/train/<baseline>__seed<S>)")
+    parser.add_argument(
+        "--run-dir",
+        help="run directory (default runs/train/<baseline>__seed<S>); with --seeds: the folder of their runs",
+    )
     parser.add_argument(
         "--resume", action="store_true", help="continue the run in --run-dir from its latest checkpoint"
     )
@@ -246,6 +256,7 @@ def build_config(args: argparse.Namespace):
             "coverage_patch_cell",
             "random_start",
             "threads",
+            "workers",
             "save_interval",
             "validation_episodes",
             "export",
@@ -394,10 +405,6 @@ def sweep(args: argparse.Namespace) -> int:
     several = len(set(args.seeds)) > 1
     refused = [
         (args.seed is not None, "--seed: give the seeds with --seeds alone"),
-        (
-            several and args.run_dir is not None,
-            "--run-dir: each seed of a sweep has its own default run directory",
-        ),
         (several and args.ship, "--ship: seeds would overwrite each other's shipped policy; ship one seed"),
         (args.baseline not in TRAINABLE, f"--baseline: trainable baselines: {', '.join(TRAINABLE)}"),
         (
@@ -414,7 +421,15 @@ def sweep(args: argparse.Namespace) -> int:
     here = str(Path.cwd())
     jobs = [
         argparse.Namespace(
-            **{**vars(args), "seeds": None, "seed": seed, "no_progress": True, "workdir": here}
+            **{
+                **vars(args),
+                "seeds": None,
+                "seed": seed,
+                "run_dir": args.run_dir and str(Path(args.run_dir) / f"{policy_name(args)}__seed{seed}"),
+                "workers": 1 if args.workers is None else args.workers,  # the sweep gives a seed one CPU
+                "no_progress": True,
+                "workdir": here,
+            }
         )
         for seed in dict.fromkeys(args.seeds)
     ]

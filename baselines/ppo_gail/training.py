@@ -172,7 +172,11 @@ class TrainConfig:
     results keep "last"; "best" would reorder the ablations (docs/experiments.md)."""
     threads: int = 1
     """torch threads. 1: on a shared 2-core machine 2 threads spin waiting for each other
-    (docs/experiments.md)."""
+    (docs/experiments.md); ``workers`` uses the other cores instead."""
+    workers: int = 0
+    """Cores the training uses (0: every core this process may run on): the single-robot envs step in that
+    many processes, and with 2 or more the ICM and the discriminator train in a thread beside PPO. The
+    results do not depend on it."""
 
     def __post_init__(self) -> None:
         if self.ablation not in ABLATIONS:
@@ -203,6 +207,8 @@ class TrainConfig:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
         if self.validation_episodes < 0:
             raise ValueError(f"validation_episodes must be 0 or more, got {self.validation_episodes}")
+        if self.workers < 0:
+            raise ValueError(f"workers must be 0 (every core) or more, got {self.workers}")
         if self.learning_rate_schedule not in LEARNING_RATE_SCHEDULES:
             raise ValueError(
                 f"learning_rate_schedule must be one of {LEARNING_RATE_SCHEDULES}, got "
@@ -216,6 +222,11 @@ class TrainConfig:
             )
         if self.uses_gail and not self.demonstrations and self.demo_episodes < 1:
             raise ValueError(f"{self.ablation} learns from demonstrations: demo_episodes must be positive")
+
+    @property
+    def cores(self) -> int:
+        """The cores ``workers`` means."""
+        return self.workers or len(os.sched_getaffinity(0))
 
     @property
     def uses_gail(self) -> bool:
@@ -254,7 +265,12 @@ class TrainConfig:
         from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
 
         batched = BatchedCoverageEnv(
-            self.layouts, self.num_envs, seed=self.seed, suite=self.suite, **self.env_kwargs
+            self.layouts,
+            self.num_envs,
+            seed=self.seed,
+            num_workers=self.cores,
+            suite=self.suite,
+            **self.env_kwargs,
         )
         example = batched.example_env
         return RslRlVecEnv(batched), example.observation_config, example.observation_layout
@@ -289,10 +305,11 @@ class TrainConfig:
         return list(dict.fromkeys(self.layouts))
 
     def to_dict(self) -> dict:
-        """Every field, the suite's version (``suite_version``, None without a suite) and the ablation's
-        ``REWARD_SIGNALS`` (``use_curiosity``, ``use_gail``): the leaderboard reads those from ``config.json``
-        without importing this baseline (``cabinbench.training_records``)."""
+        """Every field but ``workers``, the suite's version (``suite_version``, None without a suite) and the
+        ablation's ``REWARD_SIGNALS`` (``use_curiosity``, ``use_gail``): the leaderboard reads those from
+        ``config.json`` without importing this baseline (``cabinbench.training_records``)."""
         values = {**dataclasses.asdict(self), "suite_version": self.suite_version, **ABLATIONS[self.ablation]}
+        del values["workers"]  # how the run was spread over cores, on which its results do not depend
         if not self.suite:  # a run on layouts: its config.json reads as it did before suites existed
             for name in SUITE_FIELDS:
                 del values[name]
@@ -567,6 +584,7 @@ def train(
     finally:
         bar.close()
         metrics.close()
+        runner.env.close()  # its workers; validation plays episodes of its own
 
     rows = read_metrics(run_dir / METRICS_FILE)
     summary = training_summary(rows, config, train_time)
@@ -664,6 +682,7 @@ def build_runner(config: TrainConfig, run_dir: Path):
         init_noise_std=config.init_noise_std,
         obs_normalization=config.obs_normalization,
         save_interval=config.save_interval,
+        shaping_update_thread=config.cores > 1,
         **config.algorithm,
     )
     if config.min_action_std > 0:

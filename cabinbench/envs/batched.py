@@ -132,8 +132,11 @@ def _serve_shard(connection, *shard_arguments) -> None:
     """Worker process: build a shard, then step it each time it is told to (True) until told to stop."""
     shard = EnvShard(*shard_arguments)
     connection.send(None)  # its first observations are written
-    while _receive(connection):
-        connection.send(shard.step())
+    try:
+        while _receive(connection):
+            connection.send(shard.step())
+    except EOFError:
+        pass  # the main process ended without closing the env: nothing is left to step for
     connection.close()
 
 
@@ -292,6 +295,10 @@ class RslRlVecEnv(VecEnv):
     @property
     def unwrapped(self) -> RslRlVecEnv:
         return self
+
+    def close(self) -> None:
+        """Stop the batched env's workers."""
+        self.env.close()
 
     def get_observations(self) -> TensorDict:
         # a fresh tensor each call: PPO keeps a reference to the previous observation
