@@ -1,8 +1,8 @@
 """Seconds per training iteration of each ablation, split into env, rollout and update.
 
 ``python -m cabinbench.bench`` finds this through the trainer (``bench_iteration`` beside ``main`` in
-``cli.py``). Each ablation trains ``iterations`` iterations of its default (shipped) configuration after
-``warmup`` ones, in one process, taking turns (see ``bench_iteration``):
+``cli.py``). Each of ``VARIANTS`` trains ``iterations`` iterations after ``warmup`` ones, in one process,
+taking turns (see ``bench_iteration``), on every core this process may use (``TrainConfig.workers``):
 
 - ``env``: the batched env's ``step`` (physics, lidar, coverage patch, rewards);
 - ``rollout``: rsl-rl's collection time, the env included (plus the policy's actions, the curiosity and
@@ -18,6 +18,18 @@ from pathlib import Path
 
 from cabinbench.baselines.ppo_gail.algorithm import ABLATIONS
 from cabinbench.baselines.ppo_gail.training import TrainConfig, TrainingLog, build_runner
+
+VARIANTS = {
+    **{ablation: {"ablation": ablation} for ablation in ABLATIONS},
+    "ppo_gail_one_core": {"ablation": "ppo_gail", "workers": 1},
+    "ppo_gail_shaping_epochs_1": {
+        "ablation": "ppo_gail",
+        "algorithm": {**TrainConfig().algorithm, "shaping_epochs": 1},
+    },
+}
+"""What is timed: each ablation's default (shipped) configuration; ``ppo_gail`` on one core, for what the
+second core buys; and ``ppo_gail`` whose ICM and discriminator train one epoch an iteration instead of PPO's
+three (docs/experiments.md, "One epoch of the ICM and the discriminator")."""
 
 
 class _TimedEnv:
@@ -49,17 +61,17 @@ class _TimedLog(TrainingLog):
 
 
 def bench_iteration(iterations: int = 3, warmup: int = 1) -> dict[str, dict[str, float]]:
-    """``{ablation: {"env": s, "rollout": s, "update": s, "total": s}}``: seconds of each ablation's
-    fastest timed iteration. The ablations take turns, one iteration each, so that a machine whose load
+    """``{variant: {"env": s, "rollout": s, "update": s, "total": s}}``: seconds of each variant's
+    fastest timed iteration. The variants take turns, one iteration each, so that a machine whose load
     drifts slows them alike; the fastest of the turns is the one the neighbours disturbed least."""
     with tempfile.TemporaryDirectory() as folder:  # one folder: the GAIL ablations share the demonstrations
         timed = {}
-        for ablation in ABLATIONS:
-            config = TrainConfig(ablation=ablation, validation_episodes=0)
+        for name, settings in VARIANTS.items():
+            config = TrainConfig(**settings, validation_episodes=0)
             runner, _ = build_runner(config, Path(folder))
             runner.env = _TimedEnv(runner.env)
             runner.logger = _TimedLog(config.num_envs, config.num_envs * config.num_steps_per_env)
-            timed[ablation] = (runner, [])
+            timed[name] = (runner, [])
         for turn in range(warmup + iterations):
             for runner, iterations_timed in timed.values():
                 env_before = runner.env.seconds
@@ -77,6 +89,6 @@ def bench_iteration(iterations: int = 3, warmup: int = 1) -> dict[str, dict[str,
         for runner, _ in timed.values():
             runner.env.close()
     return {
-        ablation: min(iterations_timed, key=lambda seconds: seconds["total"])
-        for ablation, (_, iterations_timed) in timed.items()
+        name: min(iterations_timed, key=lambda seconds: seconds["total"])
+        for name, (_, iterations_timed) in timed.items()
     }
