@@ -2,8 +2,10 @@
 
 The baseline's class names its trainer (``Baseline.trainer``); this command loads it and hands it
 every argument, so ``python -m cabinbench.train --baseline ppo_gail --help`` shows that trainer's
-options. Exit status: 0 done; 2 a baseline that cannot be loaded or does not learn (the ones that
-do are printed), or a trainer's own usage error; 130 interrupted (finished checkpoints are kept).
+options. Several baselines of one trainer (``--baseline ppo_gail ppo --seeds 0 1 2``) are handed
+over together: one sweep of them all, where the trainer sweeps. Exit status: 0 done; 2 a baseline
+that cannot be loaded or does not learn (the ones that do are printed), or a trainer's own usage
+error; 130 interrupted (finished checkpoints are kept).
 """
 
 from __future__ import annotations
@@ -38,8 +40,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument(
         "--baseline",
+        nargs="+",
         required="-h" not in argv and "--help" not in argv,
-        help="a learned baseline, e.g. ppo_gail",
+        help="a learned baseline, e.g. ppo_gail (several, with the same trainer: one sweep of them)",
     )
     known, _ = parser.parse_known_args(argv)
     if known.baseline is None:
@@ -49,17 +52,23 @@ def main(argv: list[str] | None = None) -> int:
             "--baseline NAME --help shows a trainer's options"
         )
         return 0
-    try:
-        trainer = baseline_class(known.baseline).trainer
-    except BaselineError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return EXIT_USAGE
-    if not trainer:
-        print(
-            f"error: baseline {known.baseline!r} does not learn; trainable baselines: "
-            f"{', '.join(trainable_baselines())}",
-            file=sys.stderr,
-        )
+    trainers = set()
+    for name in known.baseline:
+        try:
+            trainer = baseline_class(name).trainer
+        except BaselineError as error:
+            print(f"error: {error}", file=sys.stderr)
+            return EXIT_USAGE
+        if not trainer:
+            print(
+                f"error: baseline {name!r} does not learn; trainable baselines: "
+                f"{', '.join(trainable_baselines())}",
+                file=sys.stderr,
+            )
+            return EXIT_USAGE
+        trainers.add(trainer)
+    if len(trainers) > 1:
+        print(f"error: --baseline: one sweep needs one trainer; these have {len(trainers)}", file=sys.stderr)
         return EXIT_USAGE
     module_name, function_name = trainer.split(":", 1)
     return getattr(importlib.import_module(module_name), function_name)(argv)

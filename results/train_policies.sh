@@ -5,9 +5,9 @@
 # code reproduces the committed policies and training records.
 # Usage: bash results/train_policies.sh [SEED ...]   (from the repository root; default seeds 0 1 2), then
 # bash results/make_results.sh learned to score them.
-# The runs are Ray tasks, one CPU each, on the cluster at $RAY_ADDRESS (e.g. auto, after `ray start --head` here
-# and `ray start --address=HEAD:6379` on each other node; the folder must be shared between them) or, without it,
-# on a Ray instance of this machine that the script starts and stops. An interrupted sweep continues with
+# The runs are Ray tasks, one CPU each: on a Ray instance of this machine started for the sweep, or on the cluster
+# at $RAY_ADDRESS (e.g. auto, after `ray start --head` here and `ray start --address=HEAD:6379` on each other node;
+# the repository folder must be shared between them). An interrupted sweep continues with
 # RESUME=1 bash results/train_policies.sh: each unfinished run resumes from its latest checkpoint. TRAIN_OPTIONS
 # adds options to every run (e.g. "--iterations 2 --validation-episodes 1" for a smoke run: it ships what it trains).
 set -euo pipefail
@@ -15,28 +15,17 @@ seeds=${*:-0 1 2}
 runs=runs/train_policies  # this script's own run folders
 baselines="ppo_gail ppo ppo_icm ppo_gail_only"
 if [ "${RESUME:-0}" = 1 ]; then resume=--resume; else resume=""; rm -rf "$runs"; fi
-mkdir -p "$runs"
-address=${RAY_ADDRESS:-}
-if [ -z "$address" ]; then
-  ray start --head --num-cpus "$(nproc)" --include-dashboard=false --disable-usage-stats > "$runs/ray.log" 2>&1
-  trap 'ray stop > /dev/null 2>&1' EXIT
-  address=auto
-fi
-# One sweep: every baseline's seeds are tasks of the same cluster, which runs as many at once as it has CPUs.
 started=$(date +%s)
-for baseline in $baselines; do
-  # shellcheck disable=SC2086  # $seeds, $resume and $TRAIN_OPTIONS are word lists
-  python -m cabinbench.train --baseline "$baseline" --seeds $seeds --run-dir "$runs" $resume ${TRAIN_OPTIONS:-} \
-    --executor ray --address "$address" > "$runs/$baseline.log" 2>&1 &
-done
-failed=0
-for _ in $baselines; do wait -n || failed=1; done
-echo "sweep: $(( ($(date +%s) - started) / 60 )) min (logs: $runs/*.log)"
-[ "$failed" = 0 ] || { echo "a sweep failed; continue it with RESUME=1 bash $0 $*" >&2; exit 1; }
+# shellcheck disable=SC2086  # $baselines, $seeds, $resume and $TRAIN_OPTIONS are word lists
+python -m cabinbench.train --baseline $baselines --seeds $seeds --run-dir "$runs" $resume ${TRAIN_OPTIONS:-} \
+  --executor ray ${RAY_ADDRESS:+--address "$RAY_ADDRESS"} ||
+  { echo "the sweep did not finish; continue it with RESUME=1 bash $0 $*" >&2; exit 1; }
+echo "sweep: $(( ($(date +%s) - started) / 60 )) min"
 # Install: a finished run is only exported again (its validation is kept).
 for baseline in $baselines; do
   for seed in $seeds; do
     if [ "$seed" = 0 ]; then install=--ship; else install=--keep; fi
+    # shellcheck disable=SC2086
     python -m cabinbench.train --baseline "$baseline" --seed "$seed" --run-dir "$runs/${baseline}__seed$seed" \
       --resume "$install" --no-progress ${TRAIN_OPTIONS:-} > /dev/null
   done

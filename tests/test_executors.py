@@ -144,6 +144,7 @@ def test_a_training_sweep_on_ray_writes_each_seed_as_a_local_run_would(cluster, 
     assert completed.returncode == 0, completed.stderr
     sweep = [
         *TINY_TRAINING,
+        "ppo_icm",  # a second --baseline: one sweep of both
         "--iterations",
         "2",
         "--seeds",
@@ -158,8 +159,9 @@ def test_a_training_sweep_on_ray_writes_each_seed_as_a_local_run_would(cluster, 
     ]
     completed = command("cabinbench.train", sweep, remote)
     assert completed.returncode == 0, completed.stderr
-    for seed in (0, 1):
-        assert f"seed {seed}: done (swept/ppo__seed{seed})" in completed.stderr
+    for baseline in ("ppo", "ppo_icm"):
+        for seed in (0, 1):
+            assert f"{baseline} seed {seed}: done (swept/{baseline}__seed{seed})" in completed.stderr
     single, swept = local / "runs/train/ppo__seed1", remote / "swept/ppo__seed1"
     assert sorted(p.relative_to(swept) for p in swept.rglob("*")) == sorted(
         p.relative_to(single) for p in single.rglob("*")
@@ -167,6 +169,12 @@ def test_a_training_sweep_on_ray_writes_each_seed_as_a_local_run_would(cluster, 
     assert (swept / "config.json").read_text() == (single / "config.json").read_text()
     assert metrics(swept) == metrics(single) and len(metrics(swept)) == 2
     assert metrics(remote / "swept/ppo__seed0") != metrics(swept)  # another seed, another run
+    curiosity = [
+        row["curiosity_forward"]
+        for run in ("ppo", "ppo_icm")
+        for row in metrics(remote / f"swept/{run}__seed1")
+    ]
+    assert curiosity[:2] == ["", ""] and all(curiosity[2:])  # each baseline trained as itself
 
 
 def test_an_interrupted_sweep_resumes_the_unfinished_seeds_from_their_checkpoints(tmp_path):
@@ -191,8 +199,8 @@ def test_an_interrupted_sweep_resumes_the_unfinished_seeds_from_their_checkpoint
     _, stderr = process.communicate(timeout=120)
     assert process.returncode == 130
     assert (
-        "seeds not finished: 0, 1; continue them from their checkpoints with the same command and --resume"
-        in (stderr)
+        "not finished: ppo seed 0, ppo seed 1; continue them from their checkpoints with the same command "
+        "and --resume" in (stderr)
     )
     before = {path: path.stat().st_mtime_ns for run in runs for path in (run / "checkpoints").glob("*.pt")}
     last = max(int(path.stem.split("_")[1]) for path in before)

@@ -174,6 +174,14 @@ CASES = {
         ["train", "--baseline", "ppo", "--seed", "1", "--seeds", "0", "1"],
         ["--seed", "give the seeds with --seeds alone"],
     ),
+    "train: several baselines without --seeds": (
+        ["train", "--baseline", "ppo", "ppo_icm"],
+        ["several baselines train as one sweep", "--seeds"],
+    ),
+    "train: an untrainable baseline in a sweep": (
+        ["train", "--baseline", "ppo", "boustrophedon", "--seeds", "0"],
+        ["'boustrophedon' does not learn"],
+    ),
     "train: --executor without --seeds": (
         ["train", "--baseline", "ppo", "--executor", "ray"],
         ["--executor and --address run the seeds of --seeds"],

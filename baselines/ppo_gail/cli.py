@@ -1,6 +1,6 @@
 """The trainer of the ppo_gail baselines, run by ``python -m cabinbench.train --baseline ppo_gail ...``.
 
-    python -m cabinbench.train --baseline ppo_gail|ppo|ppo_icm|ppo_gail_only
+    python -m cabinbench.train --baseline ppo_gail|ppo|ppo_icm|ppo_gail_only [...]
     python -m cabinbench.train --baseline ppo_gail_study --stage cleaning|tracking
     python -m cabinbench.train --baseline ppo_gail_team [--agents K] [--[no-]centralised-critic]
         [--team-weight W] [--init-policy FILE|NAME]
@@ -49,7 +49,8 @@ curves. ``--keep`` copies the policy, ``config.json``, ``metrics.csv`` and ``val
 ``--seeds S ...`` trains one run per seed at once, each exactly as ``--seed S`` would, in its own run
 directory ``<name>__seed<S>`` in the folder ``--run-dir`` (default ``runs/train``), one CPU each
 (``--workers``): in local processes, or with ``--executor ray`` as Ray tasks on the cluster at ``--address``
-(or a local Ray instance; on several nodes the run directories must be on a shared filesystem).
+(or a local Ray instance; on several nodes the run directories must be on a shared filesystem). With several
+``--baseline`` names the sweep trains every seed of each (``results/train_policies.sh``: 4 x 3 runs).
 An interrupted sweep continues with the same command and ``--resume``: each unfinished seed resumes from its
 latest checkpoint, a finished one is only exported again.
 
@@ -86,7 +87,14 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         prog="python -m cabinbench.train",
         description="Train PPO + curiosity + GAIL (or an ablation) with rsl-rl.",
     )
-    parser.add_argument("--baseline", required=True, help=f"one of {', '.join(TRAINABLE)}")
+    parser.add_argument(
+        "--baseline",
+        required=True,
+        nargs="+",
+        dest="baselines",
+        metavar="NAME",
+        help=f"one of {', '.join(TRAINABLE)} (with --seeds, several: one sweep of them all)",
+    )
     parser.add_argument(
         "--stage",
         choices=("cleaning", "tracking"),
@@ -229,6 +237,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     args = parser.parse_args(argv)
     if args.algorithm is not None and not isinstance(args.algorithm, dict):
         parser.error("--algorithm must be a JSON object")
+    args.baseline = args.baselines[0]  # a single run's; a sweep sets each run's own
     return args
 
 
@@ -303,6 +312,9 @@ def main(argv: list[str] | None = None) -> int:
         return sweep(args)
     if args.executor != "local" or args.address is not None:
         print("error: --executor and --address run the seeds of --seeds; give --seeds S ...", file=sys.stderr)
+        return EXIT_USAGE
+    if len(args.baselines) > 1:
+        print("error: --baseline: several baselines train as one sweep; give --seeds S ...", file=sys.stderr)
         return EXIT_USAGE
     return train_one(args)
 
@@ -401,12 +413,14 @@ def train_one(args: argparse.Namespace) -> int:
 
 
 def sweep(args: argparse.Namespace) -> int:
-    """Train every seed of ``--seeds`` with the executor of ``--executor``; the worst exit status."""
+    """Train every seed of ``--seeds`` of every ``--baseline`` with the executor of ``--executor``; the worst
+    exit status."""
     several = len(set(args.seeds)) > 1
+    untrainable = [name for name in args.baselines if name not in TRAINABLE]
     refused = [
         (args.seed is not None, "--seed: give the seeds with --seeds alone"),
         (several and args.ship, "--ship: seeds would overwrite each other's shipped policy; ship one seed"),
-        (args.baseline not in TRAINABLE, f"--baseline: trainable baselines: {', '.join(TRAINABLE)}"),
+        (untrainable, f"--baseline {' '.join(untrainable)}: trainable baselines: {', '.join(TRAINABLE)}"),
         (
             args.executor == "local" and args.address is not None,
             "--address: only --executor ray runs on a cluster",
@@ -419,20 +433,23 @@ def sweep(args: argparse.Namespace) -> int:
     # Each seed's run works in this folder (a Ray worker's own is elsewhere): run directories, --keep and
     # --ship land where a local run would put them.
     here = str(Path.cwd())
-    jobs = [
-        argparse.Namespace(
-            **{
-                **vars(args),
-                "seeds": None,
-                "seed": seed,
-                "run_dir": args.run_dir and str(Path(args.run_dir) / f"{policy_name(args)}__seed{seed}"),
-                "workers": 1 if args.workers is None else args.workers,  # the sweep gives a seed one CPU
-                "no_progress": True,
-                "workdir": here,
-            }
-        )
-        for seed in dict.fromkeys(args.seeds)
-    ]
+    jobs = []
+    for baseline in dict.fromkeys(args.baselines):
+        for seed in dict.fromkeys(args.seeds):
+            job = argparse.Namespace(
+                **{
+                    **vars(args),
+                    "baseline": baseline,
+                    "seeds": None,
+                    "seed": seed,
+                    "workers": 1 if args.workers is None else args.workers,  # the sweep gives a run one CPU
+                    "no_progress": True,
+                    "workdir": here,
+                }
+            )
+            if args.run_dir:
+                job.run_dir = str(Path(args.run_dir) / f"{policy_name(job)}__seed{seed}")
+            jobs.append(job)
     try:
         executor = executors()[args.executor](
             workers=min(len(jobs), os.cpu_count() or 1), address=args.address
@@ -440,10 +457,7 @@ def sweep(args: argparse.Namespace) -> int:
     except UsageError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
-    print(
-        f"training seeds {', '.join(str(job.seed) for job in jobs)} with the {args.executor} executor",
-        file=sys.stderr,
-    )
+    print(f"training {', '.join(map(job_name, jobs))} with the {args.executor} executor", file=sys.stderr)
     statuses = {}
     try:
         with executor:
@@ -453,21 +467,26 @@ def sweep(args: argparse.Namespace) -> int:
                 else:
                     job, status = outcome
                     what = "done" if status == 0 else f"exit status {status}"
-                statuses[job.seed] = status
-                print(f"seed {job.seed}: {what} ({run_dir(job)})", file=sys.stderr)
+                statuses[job_name(job)] = status
+                print(f"{job_name(job)}: {what} ({run_dir(job)})", file=sys.stderr)
     except KeyboardInterrupt:
         statuses[None] = EXIT_INTERRUPTED
     if any(status != 0 for status in statuses.values()):
-        unfinished = [job.seed for job in jobs if statuses.get(job.seed) != 0]
+        unfinished = [job_name(job) for job in jobs if statuses.get(job_name(job)) != 0]
         print(
-            f"seeds not finished: {', '.join(map(str, unfinished))}; continue them from their checkpoints "
-            "with the same command and --resume",
+            f"not finished: {', '.join(unfinished)}; continue them from their checkpoints with the same "
+            "command and --resume",
             file=sys.stderr,
         )
     for status in (EXIT_INTERRUPTED, EXIT_USAGE, 1):
         if status in statuses.values():
             return status
     return 0
+
+
+def job_name(args: argparse.Namespace) -> str:
+    """A run of a sweep as its messages name it: ``<baseline> seed <S>``."""
+    return f"{args.baseline} seed {args.seed}"
 
 
 def run_dir(args: argparse.Namespace) -> Path:
