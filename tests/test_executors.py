@@ -143,8 +143,8 @@ def test_a_training_sweep_on_ray_writes_each_seed_as_a_local_run_would(cluster, 
     completed = command("cabinbench.train", [*TINY_TRAINING, "--iterations", "2", "--seed", "1"], local)
     assert completed.returncode == 0, completed.stderr
     sweep = [
-        *TINY_TRAINING,
-        "ppo_icm",  # a second --baseline: one sweep of both
+        *("--baseline", "ppo", "ppo_icm"),  # one sweep of both
+        *TINY_TRAINING[2:],
         "--iterations",
         "2",
         "--seeds",
