@@ -281,6 +281,10 @@ def main(argv: list[str] | None = None) -> int:
     if "ppo" in training:  # what curiosity and imitation add to PPO's iteration, measured in this run
         for baseline, seconds in training.items():
             results[f"ratio_train_{baseline}_to_ppo"] = seconds["total"] / training["ppo"]["total"]
+    one_core = results["batched_a320_cell_agent_steps_per_s_one_core"]
+    if one_core:  # what batching buys per core, and what the other cores add
+        results["ratio_batched_one_core_to_single"] = one_core / results["single_a320_cell_steps_per_s"]
+        results[f"ratio_batched_{len(cores)}_workers_to_one"] = all_cores / one_core
     cartpole = results["peer_cartpole_steps_per_s"]
     pistonball = results["peer_pistonball_agent_steps_per_s"]
     results["ratio_a320_cell_to_cartpole"] = results["single_a320_cell_steps_per_s"] / cartpole
@@ -292,6 +296,8 @@ def main(argv: list[str] | None = None) -> int:
     targets = {
         "single_a320_cell_steps_per_s": "target >= 10,000",
         f"batched_a320_cell_agent_steps_per_s_{len(cores)}_workers": "target >= 50,000 on this machine",
+        "ratio_batched_one_core_to_single": "target >= 3",
+        f"ratio_batched_{len(cores)}_workers_to_one": "target >= 1.8",
         "boustrophedon_plan_full_cabin_s": "target < 1 s",
         "generate_cabin_v1_layout_s": "target <= 0.05 s",
         "generate_cabin_v1_ood_layout_s": "target <= 0.05 s",
