@@ -451,14 +451,14 @@ class PPOCuriosityGail(PPO):
                     | {"gail_reward": gail_reward}
                 )
             )
+
+        def shape() -> list[dict[str, float]]:
+            return [shaping_update() for shaping_update in shaping_updates]
+
+        beside = self.shaping_thread.submit(shape) if self.shaping_thread else None
+        ppo_losses = super().update()  # it reads what the shaping updates read, and writes none of it
         extra_losses = {}
-        if self.shaping_thread is None:
-            for shaping_update in shaping_updates:
-                extra_losses |= shaping_update()
-            return super().update() | extra_losses  # PPO's update also clears the storage, so it runs last
-        beside = self.shaping_thread.submit(lambda: [shaping_update() for shaping_update in shaping_updates])
-        ppo_losses = super().update()
-        for losses in beside.result():
+        for losses in beside.result() if beside else shape():
             extra_losses |= losses
         return ppo_losses | extra_losses
 
