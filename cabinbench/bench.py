@@ -273,7 +273,7 @@ def main(argv: list[str] | None = None) -> int:
         "peer_pistonball_agent_steps_per_s": bench_pistonball(max(50, args.steps // 200)),
     }
     if hasattr(os, "sched_setaffinity"):
-        os.sched_setaffinity(0, set(cores))  # training uses every core (its envs' workers, a second thread)
+        os.sched_setaffinity(0, set(cores))  # training uses every core (env workers, shaping threads)
     training = bench_training(args.training_iterations)
     for baseline, seconds in training.items():
         for part, value in seconds.items():

@@ -225,9 +225,9 @@ def test_training_with_a_coverage_patch_keeps_it_from_the_icm_and_the_discrimina
 
 
 def test_the_results_do_not_depend_on_the_cores_the_training_uses(tmp_path):
-    """With ``workers=2`` the envs step in two processes and the ICM and the discriminator train in a thread
-    beside PPO: every metric and every tensor of every checkpoint (networks, optimisers, normalisers) is the
-    one-core run's."""
+    """With ``workers=2`` the envs step in two processes and the ICM and the discriminator each train in a
+    thread beside PPO: every metric and every tensor of every checkpoint (networks, optimisers, normalisers)
+    is the one-core run's."""
     for workers in (1, 2):
         config = tiny_config(workers=workers, coverage_patch=4, validation_episodes=0)
         training.train(config, tmp_path / f"cores{workers}", progress=False)

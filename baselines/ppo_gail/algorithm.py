@@ -278,7 +278,7 @@ class PPOCuriosityGail(PPO):
         expected_observation_config: dict | str | None = None,
         shaping_columns: Sequence[int] | None = None,
         shaping_epochs: int | None = None,
-        shaping_update_thread: bool = False,
+        shaping_update_threads: bool = False,
         **ppo_kwargs,
     ) -> None:
         """Build PPO and the enabled reward modules.
@@ -307,10 +307,10 @@ class PPOCuriosityGail(PPO):
                 agent does.
             shaping_epochs: Epochs of the ICM and discriminator updates per iteration, over PPO's mini-batches
                 (None: PPO's ``num_learning_epochs``).
-            shaping_update_thread: Train the ICM and the discriminator in a thread of their own while PPO
-                trains (a second core's work; torch runs its kernels outside Python's lock). The results do
-                not change: every random draw of their updates is made before PPO's, in the order of the
-                sequential update, and each module only reads the rollout.
+            shaping_update_threads: Train the ICM and the discriminator each in a thread of its own while
+                PPO trains (the other cores' work; torch runs its kernels outside Python's lock). The results
+                do not change: every random draw of their updates is made before PPO's, in the order of the
+                sequential update, and each module only reads the rollout and writes its own weights.
             ppo_kwargs: Passed to ``PPO`` (gamma, lam, learning_rate, ..., device, multi_gpu_cfg).
         """
         super().__init__(actor, critic, storage, **ppo_kwargs)
@@ -363,8 +363,10 @@ class PPOCuriosityGail(PPO):
             )
             self.gail_rewards = torch.zeros(rollout_shape, device=self.device)
 
-        has_shaping = self.curiosity is not None or self.discriminator is not None
-        self.shaping_thread = ThreadPoolExecutor(1) if shaping_update_thread and has_shaping else None
+        shaping_modules = (self.curiosity is not None) + (self.discriminator is not None)
+        self.shaping_threads = (
+            ThreadPoolExecutor(shaping_modules) if shaping_update_threads and shaping_modules else None
+        )
 
     # --- Rollout --------------------------------------------------------------------------------------------
 
@@ -419,7 +421,7 @@ class PPOCuriosityGail(PPO):
         if self.curiosity is not None or self.discriminator is not None:
             states = self._shaping_observation(self.storage.observations).flatten(0, 1)
             actions = self.storage.actions.flatten(0, 1).clamp(-ACTION_LIMIT, ACTION_LIMIT)
-        # The mini-batches are drawn here, before PPO draws its own, so a thread gives the same updates.
+        # The mini-batches are drawn here, before PPO draws its own, so threads give the same updates.
         if self.curiosity is not None:
             # Transitions into a reset observation carry no information about the dynamics.
             not_done = (self.storage.dones == 0).flatten()
@@ -452,14 +454,13 @@ class PPOCuriosityGail(PPO):
                 )
             )
 
-        def shape() -> list[dict[str, float]]:
-            return [shaping_update() for shaping_update in shaping_updates]
-
-        beside = self.shaping_thread.submit(shape) if self.shaping_thread else None
+        if self.shaping_threads:
+            beside = [self.shaping_threads.submit(shaping_update) for shaping_update in shaping_updates]
+            shaping_updates = [future.result for future in beside]
         ppo_losses = super().update()  # it reads what the shaping updates read, and writes none of it
         extra_losses = {}
-        for losses in beside.result() if beside else shape():
-            extra_losses |= losses
+        for shaping_update in shaping_updates:  # with threads: their results, once they are done
+            extra_losses |= shaping_update()
         return ppo_losses | extra_losses
 
     def update_curiosity(

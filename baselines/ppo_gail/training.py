@@ -175,7 +175,7 @@ class TrainConfig:
     (docs/experiments.md); ``workers`` uses the other cores instead."""
     workers: int = 0
     """Cores the training uses (0: every core this process may run on): the single-robot envs step in that
-    many processes, and with 2 or more the ICM and the discriminator train in a thread beside PPO. The
+    many processes, and with 2 or more the ICM and the discriminator each train in a thread beside PPO. The
     results do not depend on it."""
 
     def __post_init__(self) -> None:
@@ -682,7 +682,7 @@ def build_runner(config: TrainConfig, run_dir: Path):
         init_noise_std=config.init_noise_std,
         obs_normalization=config.obs_normalization,
         save_interval=config.save_interval,
-        shaping_update_thread=config.cores > 1,
+        shaping_update_threads=config.cores > 1,
         **config.algorithm,
     )
     if config.min_action_std > 0:
