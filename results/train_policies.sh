@@ -2,7 +2,7 @@
 # Train every learned policy the committed results use, with the default training config, as one Ray sweep: the
 # four ablations at seed 0 (installed with --ship, the leaderboard's policies) and at seeds 1 and 2 (kept with
 # --keep, the ablation table's). Training is deterministic on a CPU, whatever the cores a run is given (tested);
-# with the previous defaults this script reproduced the then-shipped policies exactly (docs/experiments.md).
+# its runs, swept a few at a time, reproduced the four shipped policies exactly (docs/experiments.md).
 # Usage: bash results/train_policies.sh [SEED ...]   (from the repository root; default seeds 0 1 2), then
 # bash results/make_results.sh learned to score them.
 # The runs are Ray tasks, one CPU each: on a Ray instance of this machine started for the sweep, or on the cluster
