@@ -46,7 +46,7 @@ class DiesOnSeedOne(RandomBounce):
 @pytest.fixture(scope="module")
 def cluster():
     """The address of a local Ray instance with 2 CPUs."""
-    ray.init(num_cpus=2, include_dashboard=False, logging_level="WARNING")
+    ray.init(address="local", num_cpus=2, include_dashboard=False, logging_level="WARNING")
     try:
         yield ray.get_runtime_context().gcs_address
     finally:
@@ -113,6 +113,30 @@ def test_a_plugin_resolves_on_the_workers_and_a_dead_worker_fails_only_its_episo
     assert [{**record, "baseline": None} for record in stable(records)] == [
         {**record, "baseline": None} for record in stable(reference) if record["episode"] != 1
     ]
+
+
+def test_a_cluster_that_asks_for_its_token_gets_one_line_on_how_to_give_it(cluster, tmp_path):
+    """A new Ray instance uses Ray's token authentication, and Ray sends the token to an address given by
+    hand only with RAY_AUTH_MODE=token: without it the cluster refuses the command, which says how to
+    give the token rather than that there is no cluster."""
+    assert os.environ["RAY_AUTH_MODE"] == "token"  # set by ray.init for the fixture's instance
+    environment = {name: value for name, value in os.environ.items() if name != "RAY_AUTH_MODE"}
+    argv = [*SHORT, "--executor", "ray", "--address", cluster, "--out", "out"]
+    completed = subprocess.run(
+        [sys.executable, "-m", "cabinbench.run", *argv],
+        cwd=tmp_path,
+        env=environment,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert completed.returncode == 2
+    assert [line for line in completed.stderr.splitlines() if line.startswith("error:")] == [
+        f"error: --address {cluster}: the Ray cluster there asks for its authentication token; run with "
+        "RAY_AUTH_MODE=token and the cluster's token in ~/.ray/auth_token (or RAY_AUTH_TOKEN), or with "
+        "--address auto on one of its nodes"
+    ]
+    assert "Traceback" not in completed.stderr and not (tmp_path / "out").exists()
 
 
 def test_without_ray_the_ray_executor_says_how_to_install_it(tmp_path):

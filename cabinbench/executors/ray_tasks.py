@@ -36,13 +36,20 @@ class RayExecutor(Executor):
         runtime_env = {"working_dir": working_dir, "excludes": SHIPPED_EXCLUDES} if working_dir else None
         try:
             ray.init(
-                address=address,
+                address=address or "local",  # not a cluster that happens to run on this machine
                 runtime_env=runtime_env,
                 include_dashboard=False if address is None else None,
                 logging_level=logging.WARNING,
                 configure_logging=True,
             )
         except ConnectionError as error:
+            if "InvalidAuthToken" in str(error.__cause__):
+                # Ray sends its token to an address given by hand only when RAY_AUTH_MODE says so.
+                raise UsageError(
+                    f"--address {address}: the Ray cluster there asks for its authentication token; run with "
+                    "RAY_AUTH_MODE=token and the cluster's token in ~/.ray/auth_token (or RAY_AUTH_TOKEN), "
+                    "or with --address auto on one of its nodes"
+                ) from None
             raise UsageError(
                 f"--address {address}: no Ray cluster to join there ({_first_line(error)}); start one "
                 "with 'ray start --head', or leave --address out for a local instance"
