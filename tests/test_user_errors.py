@@ -68,6 +68,10 @@ CASES = {
         [*RUN, "--address", "auto"],
         ["--address", "only --executor ray runs on a cluster"],
     ),
+    "run: --address where no cluster runs": (
+        [*RUN, "--executor", "ray", "--address", "127.0.0.1:9"],
+        ["--address 127.0.0.1:9: no Ray cluster to join there", "ray start --head"],
+    ),
     "run: --workers with Ray": (
         [*RUN, "--executor", "ray", "--workers", "2"],
         ["--workers", "the local executor's"],

@@ -14,6 +14,7 @@ running again, perhaps to die again, unseen.
 from __future__ import annotations
 
 import logging
+import socket
 from collections.abc import Callable, Iterable, Iterator
 
 from ..cli import UsageError
@@ -21,6 +22,10 @@ from . import Executor, JobFailure
 
 INSTALL = 'pip install "cabinbench[ray]"'
 SHIPPED_EXCLUDES = [".git", ".venv*", "__pycache__", "*.egg-info"]  # never needed by a worker
+NO_CLUSTER = (
+    "no Ray cluster to join there ({reason}); start one with 'ray start --head', or leave --address out "
+    "for a local instance"
+)
 
 
 class RayExecutor(Executor):
@@ -34,6 +39,8 @@ class RayExecutor(Executor):
             raise UsageError(f"--executor ray needs Ray, which is not installed: {INSTALL}") from None
         self.ray = ray
         runtime_env = {"working_dir": working_dir, "excludes": SHIPPED_EXCLUDES} if working_dir else None
+        if address is not None and (refusal := _unreachable(address)):
+            raise UsageError(f"--address {address}: {NO_CLUSTER.format(reason=refusal)}")
         try:
             ray.init(
                 address=address or "local",  # not a cluster that happens to run on this machine
@@ -50,10 +57,7 @@ class RayExecutor(Executor):
                     "RAY_AUTH_MODE=token and the cluster's token in ~/.ray/auth_token (or RAY_AUTH_TOKEN), "
                     "or with --address auto on one of its nodes"
                 ) from None
-            raise UsageError(
-                f"--address {address}: no Ray cluster to join there ({_first_line(error)}); start one "
-                "with 'ray start --head', or leave --address out for a local instance"
-            ) from None
+            raise UsageError(f"--address {address}: {NO_CLUSTER.format(reason=_first_line(error))}") from None
 
     def map(self, function: Callable, jobs: Iterable) -> Iterator:
         ray = self.ray
@@ -81,3 +85,16 @@ class RayExecutor(Executor):
 
 def _first_line(error: Exception) -> str:
     return (str(error).strip().splitlines() or [type(error).__name__])[0]
+
+
+def _unreachable(address: str) -> str | None:
+    """Why nothing answers at ``HOST:PORT``, or None (also for any other form of address). Ray itself
+    retries a silent address for about a quarter of an hour before it gives up."""
+    host, colon, port = address.rpartition(":")
+    if not colon or not port.isdigit() or "://" in address:
+        return None
+    try:
+        socket.create_connection((host, int(port)), timeout=5).close()
+    except OSError as error:
+        return error.strerror or type(error).__name__
+    return None
