@@ -94,7 +94,7 @@ def _unreachable(address: str) -> str | None:
     if not colon or not port.isdigit() or "://" in address:
         return None
     try:
-        socket.create_connection((host, int(port)), timeout=5).close()
+        socket.create_connection((host.strip("[]"), int(port)), timeout=5).close()  # [IPv6]:PORT too
     except OSError as error:
         return error.strerror or type(error).__name__
     return None
