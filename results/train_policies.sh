@@ -8,7 +8,8 @@
 # The runs are Ray tasks, one CPU each: on a Ray instance of this machine started for the sweep, or on the cluster
 # at $RAY_ADDRESS (e.g. auto, after `ray start --head` here and `ray start --address=HEAD:6379` on each other node;
 # the repository folder must be shared between them). An interrupted sweep continues with
-# RESUME=1 bash results/train_policies.sh: each unfinished run resumes from its latest checkpoint. TRAIN_OPTIONS
+# RESUME=1 bash results/train_policies.sh: each unfinished run resumes from its latest checkpoint and trains
+# exactly what it would have trained uninterrupted. TRAIN_OPTIONS
 # adds options to every run (e.g. "--iterations 2 --validation-episodes 1" for a smoke run: it ships what it trains).
 set -euo pipefail
 seeds=${*:-0 1 2}

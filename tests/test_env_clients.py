@@ -17,6 +17,7 @@ import torch
 
 import cabinbench
 from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv, WorkerDied
+from cabinbench.envs.batched_team import BatchedTeamEnv, RslRlTeamVecEnv
 
 
 def drive_into_contacts(step, action_of) -> None:
@@ -52,6 +53,64 @@ def test_a_copy_of_the_team_env_continues_exactly_like_the_original():
             np.testing.assert_array_equal(original[0][agent], copied[0][agent])
             assert original[1][agent] == copied[1][agent]
         np.testing.assert_array_equal(env.state(), clone.state())
+
+
+def _steps_without_wall_time(env, actions) -> list:
+    steps = []
+    for action in actions:
+        *tensors, finished = env.step(action)
+        records = [
+            (index, {k: v for k, v in record.items() if k != "wall_time"}) for index, record in finished
+        ]
+        steps.append((*tensors, records))
+    return steps
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda workers: BatchedCoverageEnv(
+            ["a320_cell", "a320_tracking_cell"],
+            num_envs=5,
+            seed=3,
+            num_workers=workers,
+            max_steps=23,
+            random_start=True,
+            lidar_noise=0.02,
+            coverage_patch=8,
+        ),
+        lambda workers: BatchedTeamEnv(
+            "a320_cell", num_envs=3, n_agents=2, seed=3, max_steps=23, random_start=True
+        ),
+    ],
+    ids=["batched", "batched_team"],
+)
+def test_a_batch_restored_from_its_episodes_goes_on_exactly_as_the_original(make):
+    """What a resumed training run relies on: a new batch (split over other workers) put back into the
+    saved episodes, some in their second episode already, steps exactly as the original goes on."""
+    original = make(2)
+    actions = torch.rand((70, original.num_envs, 2), generator=torch.Generator().manual_seed(0)) * 2 - 1
+    try:
+        _steps_without_wall_time(original, actions[:30])
+        saved = original.episodes()
+        assert sorted({len(episode_actions) for _, episode_actions in saved}) == [7]  # 30 steps = 23 + 7
+        restored = make(1)
+        try:
+            vec_env = (RslRlTeamVecEnv if isinstance(restored, BatchedTeamEnv) else RslRlVecEnv)(restored)
+            vec_env.restore(saved)
+            np.testing.assert_array_equal(vec_env.get_observations()["policy"].numpy(), original.observations)
+            assert vec_env.episode_length_buf.tolist() == [7] * restored.num_envs
+            after_original = _steps_without_wall_time(original, actions[30:])
+            after_restored = _steps_without_wall_time(restored, actions[30:])
+        finally:
+            restored.close()
+    finally:
+        original.close()
+    assert any(records for *_, records in after_original)  # episodes ended after the restore too
+    for (*tensors, records), (*tensors_restored, records_restored) in zip(after_original, after_restored):
+        for tensor, tensor_restored in zip(tensors, tensors_restored):
+            assert torch.equal(tensor, tensor_restored)
+        assert records == records_restored
 
 
 @pytest.mark.parametrize("shape", [(4,), (2, 1), (), (1, 2)])

@@ -135,6 +135,39 @@ def test_train_interrupt_resume_export_reload_and_evaluate(tmp_path, monkeypatch
     assert record["path_length"] > 0
 
 
+def test_a_run_interrupted_and_resumed_trains_exactly_the_policy_of_one_that_ran_through(
+    tmp_path, monkeypatch
+):
+    """The checkpoint keeps the envs' episodes (here 2 steps into their second one), torch's random state
+    and the logger's sums: the resumed iterations are those the run would have trained."""
+    config = tiny_config(validation_episodes=0)
+    through = training.train(config, tmp_path / "through", progress=False)
+    interrupt_on_call(monkeypatch, 3)
+    assert training.train(config, tmp_path / "resumed", progress=False).interrupted
+    monkeypatch.undo()
+    resumed = training.train(config, tmp_path / "resumed", resume=True, progress=False)
+
+    def untimed_rows(result):
+        rows = training_records.read_metrics(result.run_dir / "metrics.csv")
+        return [{k: v for k, v in row.items() if k not in ("train_time", "iteration_time")} for row in rows]
+
+    assert untimed_rows(resumed) == untimed_rows(through) and len(untimed_rows(through)) == 3
+
+    def policy_values(result) -> dict:
+        policy = read_policy_file(result.policy_path)
+        return {
+            **policy["actor"]["state_dict"],
+            **policy["obs_normalizer"],
+            "action_std": policy["action_std"],
+        }
+
+    values, values_through = policy_values(resumed), policy_values(through)
+    assert values.keys() == values_through.keys()
+    for name, value in values_through.items():
+        same = torch.equal(values[name], value) if isinstance(value, torch.Tensor) else values[name] == value
+        assert same, name
+
+
 def test_every_checkpoint_is_validated_and_the_last_or_the_best_exported(tmp_path, monkeypatch):
     """Every checkpoint plays the validation episodes (seeds apart from the leaderboard's) on every training
     layout. Ctrl-C during validation keeps the finished rows, and a resumed run plays only the checkpoints not

@@ -25,9 +25,10 @@ Read top to bottom:
    (or, with ``export="best"``, the best on validation) is exported as the small shipped policy
    ``policy.pt``.
 4. Interrupted runs (Ctrl-C, a crash) keep every finished checkpoint and validation row;
-   ``train(..., resume=True)`` continues from the latest checkpoint: same weights, optimisers, normalisers,
-   ICM and discriminator, and the iteration count goes on. The environments restart their episodes (their
-   physics state is not saved).
+   ``train(..., resume=True)`` continues from the latest checkpoint exactly as the run would have gone on:
+   same weights, optimisers, normalisers, ICM and discriminator, the environments back in their episodes
+   (replayed from how each began and the actions since), torch's random state and the logger's running
+   episode sums; the iteration count goes on.
 
 The run directory holds ``config.json``, ``demos/<layout>.npz``, ``checkpoints/model_<iteration>.pt`` (full
 rsl-rl checkpoints: actor, critic, optimisers, ICM, discriminator), ``metrics.csv``, ``curves.png``,
@@ -511,10 +512,17 @@ def latest_checkpoint(run_dir: str | os.PathLike) -> Path | None:
 
 def save_checkpoint(runner, run_dir: Path, iteration: int, config: TrainConfig, train_time: float) -> Path:
     """The algorithm's full state (rsl-rl's checkpoint dict plus the ICM and discriminator) after
-    ``iteration`` completed iterations."""
+    ``iteration`` completed iterations, and the rest of the run's state a resumed run goes on from
+    (``rollout``: the envs' episodes in play, torch's random state, the logger's running sums)."""
     saved = runner.alg.save()
     saved["iter"] = iteration
     saved["infos"] = {"config": config.to_dict(), "train_time": train_time}
+    saved["rollout"] = {
+        "episodes": [(start, torch.from_numpy(actions)) for start, actions in runner.env.episodes()],
+        "torch_random_state": torch.get_rng_state(),
+        "episode_reward_sums": runner.logger.reward_sum.clone(),
+        "episode_lengths": runner.logger.length.clone(),
+    }
     path = checkpoint_path(run_dir, iteration)
     atomic_torch_save(saved, path)
     return path
@@ -525,6 +533,20 @@ def load_checkpoint(runner, path: Path) -> dict:
     state = torch.load(path, weights_only=True, map_location="cpu")
     runner.alg.load(state, load_cfg=None, strict=True)
     return state
+
+
+def resume_rollout(runner, state: dict, path: Path) -> None:
+    """Put the run back where the checkpoint ``state`` (read from ``path``) left it: the envs into their
+    episodes, torch's random state and the logger's sums. Call it last, after everything that draws
+    random numbers while the runner is built."""
+    rollout = state.get("rollout")
+    if rollout is None:  # written before checkpoints kept it
+        print(f"{path.name} keeps no episodes: the environments start new ones", file=sys.stderr)
+        return
+    runner.env.restore([(start, actions.numpy()) for start, actions in rollout["episodes"]])
+    runner.logger.reward_sum.copy_(rollout["episode_reward_sums"])
+    runner.logger.length.copy_(rollout["episode_lengths"])
+    torch.set_rng_state(rollout["torch_random_state"])
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -560,6 +582,7 @@ def train(
     iteration, train_time = 0, 0.0
     if checkpoint is not None:
         state = load_checkpoint(runner, checkpoint)
+        resume_rollout(runner, state, checkpoint)
         iteration, train_time = int(state["iter"]), float(state["infos"]["train_time"])
     metrics = MetricsFile(run_dir / METRICS_FILE, keep_until=iteration)
 

@@ -10,12 +10,14 @@ with the metrics of the episodes that ended.
 
 from __future__ import annotations
 
+import array
 import multiprocessing
 import os
 import time
 
 import numpy as np
 import torch
+from gymnasium.utils import seeding
 from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
@@ -83,10 +85,45 @@ class BatchArrays:
         return BatchArrays, (self.num_envs, self.observation_size, True, self.blocks)
 
 
+class EpisodeLog:
+    """How each env's episode in play began (its generator's state before the reset) and its actions
+    since: enough to replay the envs into their episodes, so that a resumed training run goes on
+    exactly as if it had never stopped. Env ``i`` starts as a reset with ``seeds[i]`` would."""
+
+    def __init__(self, seeds: list[int]):
+        self.starts = [seeding.np_random(seed)[0].bit_generator.state for seed in seeds]
+        self.actions = [array.array("d") for _ in seeds]
+
+    def acted(self, index: int, action: np.ndarray) -> None:
+        """Env ``index`` took ``action`` (float64) and goes on with its episode."""
+        self.actions[index].frombytes(action.tobytes())
+
+    def resetting(self, index: int, env) -> None:
+        """Env ``index`` is about to reset from its own generator."""
+        self.starts[index], self.actions[index] = env.np_random.bit_generator.state, array.array("d")
+
+    def episodes(self, action_shape: tuple[int, ...]) -> list[tuple[dict, np.ndarray]]:
+        """(generator state, (steps, *action_shape) actions) of every env."""
+        return [
+            (start, np.frombuffer(actions).reshape(-1, *action_shape).copy())
+            for start, actions in zip(self.starts, self.actions)
+        ]
+
+    def rewind(self, index: int, env, episode: tuple[dict, np.ndarray], action_shape: tuple[int, ...]):
+        """Set env ``index``'s generator to ``episode``'s start, for the caller to reset the env and take
+        (and log, with :meth:`acted`) the actions returned: float64, each of ``action_shape``."""
+        start, actions = episode
+        env.np_random.bit_generator.state = start
+        self.starts[index], self.actions[index] = start, array.array("d")
+        return np.asarray(actions, dtype=np.float64).reshape(-1, *action_shape)
+
+
 class EnvShard:
     """A run of consecutive envs (global indices ``first`` ...) stepped in a loop, on their rows
     of ``batch``: ``CoverageEnv``s on ``layouts`` round-robin, or with ``suite`` ``SuiteEnv``s,
-    each drawing a new layout of the suite at every reset from its seeded generator."""
+    each drawing a new layout of the suite at every reset from its seeded generator.
+
+    An :class:`EpisodeLog` keeps each env's episode in play, for :meth:`episodes` and :meth:`restore`."""
 
     def __init__(
         self,
@@ -109,6 +146,7 @@ class EnvShard:
             else CoverageEnv(layouts[(first + k) % len(layouts)], **env_kwargs)
             for k in range(count)
         ]
+        self.log = EpisodeLog([seed + first + k for k in range(count)])
         for k, env in enumerate(self.envs):
             self.observations[k] = env.reset(seed=seed + first + k)[0]
 
@@ -121,20 +159,40 @@ class EnvShard:
             outcomes.append((step_reward, terminated, truncated))
             if terminated or truncated:
                 finished.append((self.first + k, env.tracker.record()))
+                self.log.resetting(k, env)
                 observation[:] = env.reset()[0]
             else:
+                self.log.acted(k, action)
                 env.world.observe(0, out=observation)
         self.rewards[:], self.terminated[:], self.truncated[:] = zip(*outcomes)
         return finished
 
+    def episodes(self) -> list[tuple[dict, np.ndarray]]:
+        """Each env's episode in play (:class:`EpisodeLog`): (generator state, (steps, 2) actions)."""
+        return self.log.episodes((2,))
+
+    def restore(self, episodes: list[tuple[dict, np.ndarray]]) -> None:
+        """Replay ``episodes`` (as :meth:`episodes` returns them) into the envs, observations included."""
+        for k, (env, episode) in enumerate(zip(self.envs, episodes, strict=True)):
+            actions = self.log.rewind(k, env, episode, (1, 2))
+            self.observations[k] = env.reset()[0]
+            for action in actions:
+                _, terminated, truncated = env.advance(action)
+                if terminated or truncated:
+                    raise ValueError(f"env {self.first + k}: its episode ended within the actions to replay")
+                self.log.acted(k, action)
+                env.world.observe(0, out=self.observations[k])
+
 
 def _serve_shard(connection, *shard_arguments) -> None:
-    """Worker process: build a shard, then step it each time it is told to (True) until told to stop."""
+    """Worker process: build a shard, then run each (method name, arguments) it is sent on it and
+    send back the result, until told to stop (None)."""
     shard = EnvShard(*shard_arguments)
     connection.send(None)  # its first observations are written
     try:
-        while _receive(connection):
-            connection.send(shard.step())
+        while (command := _receive(connection)) is not None:
+            name, arguments = command
+            connection.send(getattr(shard, name)(*arguments))
     except EOFError:
         pass  # the main process ended without closing the env: nothing is left to step for
     connection.close()
@@ -192,10 +250,11 @@ class BatchedCoverageEnv:
         ]  # parsed once, shared by the envs (which only read them)
         bounds = np.linspace(0, num_envs, max(1, min(num_workers, num_envs)) + 1).astype(int)
         self.batch = BatchArrays(num_envs, self.observation_size, shared=len(bounds) > 2)
+        self.shard_bounds = [(int(first), int(last)) for first, last in zip(bounds, bounds[1:])]
         self.observations = self.batch.observations
         shards = [
-            (layouts, int(first), int(last - first), seed, env_kwargs, self.batch, suite)
-            for first, last in zip(bounds, bounds[1:])
+            (layouts, first, last - first, seed, env_kwargs, self.batch, suite)
+            for first, last in self.shard_bounds
         ]
         self.workers = []
         for arguments in shards[1:]:
@@ -216,16 +275,9 @@ class BatchedCoverageEnv:
             actions = actions.detach().cpu()
         batch = self.batch
         batch.actions[:] = checked_action(actions, (self.num_envs, 2))
-        for parent, _ in self.workers:
-            try:  # the workers step their shards while this process steps the first
-                parent.send(True)
-            except BrokenPipeError:
-                pass  # a dead worker: reported by _replies below
-        try:
-            finished = self.local.step()
-        finally:  # collect every reply, even if this shard failed, to keep the pipes in step
-            replies = self._replies("stepping")
-        finished += [item for reply in replies for item in reply]
+        finished = [
+            item for shard_finished in self._on_every_shard("stepping", "step") for item in shard_finished
+        ]
         # copies: callers keep the tensors of earlier steps
         return (
             torch.from_numpy(batch.observations.copy()),
@@ -234,6 +286,39 @@ class BatchedCoverageEnv:
             torch.from_numpy(batch.truncated.copy()),
             finished,
         )
+
+    def episodes(self) -> list[tuple[dict, np.ndarray]]:
+        """Every env's episode in play, in env order: (its generator's state before the reset, the
+        (steps, 2) actions since). Plain numbers and arrays: a checkpoint can keep them."""
+        return [
+            episode for shard in self._on_every_shard("saving its episodes", "episodes") for episode in shard
+        ]
+
+    def restore(self, episodes: list[tuple[dict, np.ndarray]]) -> torch.Tensor:
+        """Put every env back into its episode of ``episodes`` (from :meth:`episodes` of a batch with the
+        same arguments, split over any number of workers): each is reset from its generator state and
+        replays its actions, so that the batch goes on exactly as the saved one would have. Returns
+        the observations."""
+        if len(episodes) != self.num_envs:
+            raise ValueError(f"{len(episodes)} episodes given for a batch of {self.num_envs} envs")
+        arguments = [(episodes[first:last],) for first, last in self.shard_bounds]
+        self._on_every_shard("restoring its episodes", "restore", arguments)
+        return torch.from_numpy(self.batch.observations.copy())
+
+    def _on_every_shard(self, doing: str, method: str, arguments: list[tuple] | None = None) -> list:
+        """``EnvShard.method(*arguments[i])`` (default: no arguments) on every shard ``i`` at once, shard 0
+        in this process; their results."""
+        arguments = arguments or [()] * len(self.shard_bounds)
+        for (parent, _), shard_arguments in zip(self.workers, arguments[1:]):
+            try:  # the workers run theirs while this process runs the first shard's
+                parent.send((method, shard_arguments))
+            except BrokenPipeError:
+                pass  # a dead worker: reported by _replies below
+        try:
+            local = getattr(self.local, method)(*arguments[0])
+        finally:  # collect every reply, even if this shard failed, to keep the pipes in step
+            replies = self._replies(doing)
+        return [local, *replies]
 
     def _replies(self, doing: str) -> list:
         """Every worker's reply; a worker that died raises :class:`WorkerDied` (never a hang)."""
@@ -260,7 +345,7 @@ class BatchedCoverageEnv:
 
     def close(self) -> None:
         for parent, process in self.workers:
-            parent.send(False)
+            parent.send(None)
             process.join(timeout=5)
         self.workers = []
 
@@ -303,6 +388,18 @@ class RslRlVecEnv(VecEnv):
     def get_observations(self) -> TensorDict:
         # a fresh tensor each call: PPO keeps a reference to the previous observation
         return TensorDict({"policy": self._observations.clone()}, batch_size=[self.num_envs])
+
+    def episodes(self) -> list[tuple[dict, np.ndarray]]:
+        """The batched env's episodes in play (:meth:`BatchedCoverageEnv.episodes`)."""
+        return self.env.episodes()
+
+    def restore(self, episodes: list[tuple[dict, np.ndarray]]) -> None:
+        """Go on from ``episodes`` (:meth:`BatchedCoverageEnv.restore`), episode lengths included."""
+        self._observations = self.env.restore(episodes)
+        rows_per_episode = self.num_envs // len(episodes)  # a team env's robots are rows of their own
+        self.episode_length_buf = torch.tensor(
+            [len(actions) for _, actions in episodes for _ in range(rows_per_episode)], dtype=torch.long
+        )
 
     def step(self, actions: torch.Tensor):
         observations, rewards, terminated, truncated, finished = self.env.step(actions)

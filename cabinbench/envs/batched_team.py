@@ -57,7 +57,7 @@ import numpy as np
 import torch
 from tensordict import TensorDict
 
-from .batched import RslRlVecEnv
+from .batched import EpisodeLog, RslRlVecEnv
 from .coverage_env import checked_action, observation_config
 from .team_env import TeamCoverageEnv
 
@@ -99,6 +99,7 @@ class BatchedTeamEnv:
         self.observations = np.zeros((self.num_envs, self.observation_size), dtype=np.float32)
         self.states = np.zeros((self.num_envs, self.state_size), dtype=np.float32)
         self.states[:, -n_agents:] = np.tile(np.eye(n_agents, dtype=np.float32), (num_envs, 1))
+        self.log = EpisodeLog([seed + index for index in range(num_envs)])
         for index, env in enumerate(self.envs):
             self._write(index, env.reset(seed=seed + index)[0])
 
@@ -124,7 +125,10 @@ class BatchedTeamEnv:
             terminated[rows], truncated[rows] = ended["robot_0"], cut["robot_0"]
             if ended["robot_0"] or cut["robot_0"]:
                 finished.append((index, env.episode_record))
+                self.log.resetting(index, env)
                 observations = env.reset()[0]
+            else:
+                self.log.acted(index, actions[index])
             self._write(index, observations)
         # copies: callers keep the tensors of earlier steps
         return (
@@ -134,6 +138,25 @@ class BatchedTeamEnv:
             torch.from_numpy(truncated),
             finished,
         )
+
+    def episodes(self) -> list[tuple[dict, np.ndarray]]:
+        """Each team env's episode in play (:class:`~cabinbench.envs.batched.EpisodeLog`): (generator
+        state, (steps, K, 2) actions)."""
+        return self.log.episodes((self.n_agents, 2))
+
+    def restore(self, episodes: list[tuple[dict, np.ndarray]]) -> torch.Tensor:
+        """Replay ``episodes`` (as :meth:`episodes` returns them) into the team envs; returns the
+        observations."""
+        for index, (env, episode) in enumerate(zip(self.envs, episodes, strict=True)):
+            actions = self.log.rewind(index, env, episode, (self.n_agents, 2))
+            observations = env.reset()[0]
+            for action in actions:
+                observations, _, ended, cut, _ = env.step(dict(zip(env.possible_agents, action)))
+                if ended["robot_0"] or cut["robot_0"]:
+                    raise ValueError(f"team env {index}: its episode ended within the actions to replay")
+                self.log.acted(index, action)
+            self._write(index, observations)
+        return torch.from_numpy(self.observations.copy())
 
     def close(self) -> None:
         for env in self.envs:
