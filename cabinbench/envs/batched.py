@@ -117,6 +117,14 @@ class EpisodeLog:
         self.starts[index], self.actions[index] = start, array.array("d")
         return np.asarray(actions, dtype=np.float64).reshape(-1, *action_shape)
 
+    @staticmethod
+    def replay_ended(env_name: str) -> ValueError:
+        """The error of a saved episode that ends before its actions: other env code saved it."""
+        return ValueError(
+            f"{env_name}: its saved episode ended before its saved actions did, so the checkpoint was "
+            "written by another version of the envs; start a new run, or export this one with --export-latest"
+        )
+
 
 class EnvShard:
     """A run of consecutive envs (global indices ``first`` ...) stepped in a loop, on their rows
@@ -179,7 +187,7 @@ class EnvShard:
             for action in actions:
                 _, terminated, truncated = env.advance(action)
                 if terminated or truncated:
-                    raise ValueError(f"env {self.first + k}: its episode ended within the actions to replay")
+                    raise EpisodeLog.replay_ended(f"env {self.first + k}")
                 self.log.acted(k, action)
                 env.world.observe(0, out=self.observations[k])
 

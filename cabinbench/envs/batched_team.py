@@ -153,7 +153,7 @@ class BatchedTeamEnv:
             for action in actions:
                 observations, _, ended, cut, _ = env.step(dict(zip(env.possible_agents, action)))
                 if ended["robot_0"] or cut["robot_0"]:
-                    raise ValueError(f"team env {index}: its episode ended within the actions to replay")
+                    raise EpisodeLog.replay_ended(f"team env {index}")
                 self.log.acted(index, action)
             self._write(index, observations)
         return torch.from_numpy(self.observations.copy())
