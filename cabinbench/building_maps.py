@@ -9,13 +9,13 @@ these are drawn here, deterministically, in the grey values ROS's map_saver writ
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import yaml
 from PIL import Image
 
+from .cli import ArgumentParser, output_folder, user_errors
 from .layout_fields import RESOLUTION
 from .rosmap import DEFAULT_FREE_THRESH, DEFAULT_OCCUPIED_THRESH, SAVED_FREE, SAVED_OCCUPIED
 
@@ -179,9 +179,17 @@ def write_building(
     return path
 
 
+@user_errors
 def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
-    folder = Path(argv[0]) if argv else Path("layouts")
+    parser = ArgumentParser(prog="python -m cabinbench.building_maps", description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "out",
+        nargs="?",
+        type=output_folder,
+        default="layouts",
+        help="the folder to write them to (default: layouts)",
+    )
+    folder = parser.parse_args(argv).out
     for name, (draw, description) in BUILDINGS.items():
         print(write_building(folder, name, draw(), description))
     return 0

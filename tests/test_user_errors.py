@@ -186,6 +186,16 @@ CASES = {
         ["train", "--baseline", "ppo", "boustrophedon", "--seeds", "0"],
         ["'boustrophedon' does not learn"],
     ),
+    "building_maps: unknown option": (["building_maps", "--bogus"], ["unrecognized arguments: --bogus"]),
+    "building_maps: into a file": (["building_maps", "file.txt"], ["argument out", "file.txt is a file"]),
+    "differences: --out of another format": (
+        ["baselines.ppo_gail.differences", "--out", "table.txt"],
+        ["argument --out", "ending in .md"],
+    ),
+    "differences: --out into a missing folder": (
+        ["baselines.ppo_gail.differences", "--out", "missing/table.md"],
+        ["argument --out", "no folder missing"],
+    ),
     "train: --executor without --seeds": (
         ["train", "--baseline", "ppo", "--executor", "ray"],
         ["--executor and --address run the seeds of --seeds"],

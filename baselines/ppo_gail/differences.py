@@ -12,21 +12,20 @@ configuration but code (who demonstrates, the GAIL reward's form, how the pair i
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import inspect
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 
 from cabinbench.baselines.ppo_gail.algorithm import STUDY_PPO, PPOCuriosityGail
 from cabinbench.baselines.ppo_gail.study import STAGES, STUDY, study_config
 from cabinbench.baselines.ppo_gail.training import TrainConfig
+from cabinbench.cli import ArgumentParser, output_file, user_errors
 from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.observation import LIDAR_CHANNELS
 
 N_RAYS = inspect.signature(CoverageEnv).parameters["n_rays"].default  # the lidar every variant trains with
-DEFAULT_OUT = Path("results/differences.md")
+DEFAULT_OUT = "results/differences.md"
 
 
 def derived(values: dict) -> dict:
@@ -357,16 +356,19 @@ def markdown() -> str:
     return "\n".join(lines) + "\n"
 
 
+@user_errors
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="python -m cabinbench.baselines.ppo_gail.differences",
         description="Write the table of differences between ppo_gail, ppo_gail_study and the study.",
     )
     parser.add_argument(
-        "--out", type=Path, default=DEFAULT_OUT, help=f"the Markdown file (default {DEFAULT_OUT})"
+        "--out",
+        type=output_file(".md"),
+        default=DEFAULT_OUT,
+        help=f"the Markdown file (default {DEFAULT_OUT})",
     )
     args = parser.parse_args(argv)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(markdown())
     print(args.out)
     return 0
