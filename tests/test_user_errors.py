@@ -55,6 +55,10 @@ CASES = {
         [*RUN[:2], "ppo", *RUN[3:], "--config", '{"checkpoint": "nope.pt"}'],
         ["--baseline ppo", "nope.pt: policy file not found", "--ship"],
     ),
+    "run: policy file not a torch file": (
+        [*RUN[:2], "ppo", *RUN[3:], "--config", '{"checkpoint": "file.txt"}'],
+        ["file.txt: cannot read the policy file", "weights_only=True"],
+    ),
     "run: --out is a file": ([*RUN, "--out", "file.txt"], ["argument --out", "file.txt is a file", "folder"]),
     "run: --render into a missing folder": (
         [*RUN, "--render", "missing/first.png"],
@@ -195,6 +199,14 @@ CASES = {
     "differences: --out into a missing folder": (
         ["baselines.ppo_gail.differences", "--out", "missing/table.md"],
         ["argument --out", "no folder missing"],
+    ),
+    "train: --run-dir is a file": (
+        ["train", "--baseline", "ppo", "--run-dir", "file.txt"],
+        ["argument --run-dir", "file.txt is a file"],
+    ),
+    "train: --init-policy not found": (
+        ["train", "--baseline", "ppo_gail_team", "--init-policy", "nope.pt", "--iterations", "1"],
+        ["nope.pt: policy file not found"],
     ),
     "train: --executor without --seeds": (
         ["train", "--baseline", "ppo", "--executor", "ray"],

@@ -68,7 +68,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from cabinbench.cli import ArgumentParser, UsageError
+from cabinbench.cli import ArgumentParser, UsageError, output_folder
 from cabinbench.executors import EXECUTOR_NAMES, JobFailure, executors
 from cabinbench.rewards import REWARD_PRESETS
 
@@ -198,6 +198,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     )
     parser.add_argument(
         "--run-dir",
+        type=output_folder,
         help="run directory (default runs/train/<baseline>__seed<S>); with --seeds: the folder of their runs",
     )
     parser.add_argument(

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 import os
+import pickle
 from pathlib import Path
 
 import numpy as np
@@ -189,9 +190,15 @@ def read_policy_file(path: str | os.PathLike) -> dict:
         )
     try:
         data = torch.load(path, weights_only=True, map_location="cpu")
-    except Exception as error:  # torch raises a variety of types for truncated or foreign files
+    except pickle.UnpicklingError:  # torch's refusal spans many lines and suggests weights_only=False
         raise PolicyFileError(
-            f"{path}: cannot read the policy file ({type(error).__name__}: {error}). "
+            f"{path}: cannot read the policy file: it holds more than tensors and plain values, which "
+            "torch.load(weights_only=True) refuses. It may be corrupted or not a policy file."
+        ) from None
+    except Exception as error:  # torch raises a variety of types for truncated or foreign files
+        reason = next(iter(str(error).splitlines()), "")
+        raise PolicyFileError(
+            f"{path}: cannot read the policy file ({type(error).__name__}: {reason}). "
             "It may be corrupted or not a torch file."
         ) from None
     if not isinstance(data, dict) or data.get("format") != FORMAT:

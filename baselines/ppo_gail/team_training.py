@@ -77,6 +77,10 @@ class TeamTrainConfig(TrainConfig):
             raise ValueError(f"{TEAM_POLICY} trains the ppo_gail ablation only, not {self.ablation!r}")
         if self.n_agents < 1:
             raise ValueError(f"n_agents must be positive, got {self.n_agents}")
+        if self.init_policy:
+            from cabinbench.baselines.ppo_gail.policy import read_policy_file
+
+            read_policy_file(initial_policy_path(self.init_policy))  # a bad file: one line, before any work
 
     @property
     def policy_name(self) -> str:
