@@ -200,6 +200,10 @@ CASES = {
         ["baselines.ppo_gail.differences", "--out", "missing/table.md"],
         ["argument --out", "no folder missing"],
     ),
+    "train: --demo-layouts without --suite": (
+        ["train", "--baseline", "ppo_gail", "--layout", "a320_cell", "--demo-layouts", "3"],
+        ["--demo-layouts goes with --suite"],
+    ),
     "train: --run-dir is a file": (
         ["train", "--baseline", "ppo", "--run-dir", "file.txt"],
         ["argument --run-dir", "file.txt is a file"],

@@ -349,6 +349,8 @@ def train_one(args: argparse.Namespace) -> int:
         if args.suite and (args.layouts or args.baseline not in ABLATION_NAMES):
             raise ValueError(f"--suite trains {', '.join(ABLATION_NAMES)} on a suite instead of --layout")
         config, run_dir = build_config(args)
+        if args.demo_layouts is not None and not config.suite:
+            raise ValueError("--demo-layouts goes with --suite: the expert demonstrates every --layout")
         for layout in config.layouts:
             load_layout(layout)
     except LayoutError as error:
