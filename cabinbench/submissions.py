@@ -143,33 +143,67 @@ def check_record(index: int, record, body: dict) -> None:
         raise SubmissionError(f"record {index}: coverage {record['coverage']!r} is outside [0, 1]")
 
 
+HEADER = {
+    "suite": dict,
+    "suite.name": str,
+    "suite.version": int,
+    "suite.layout_hashes": dict,
+    "baseline": dict,
+    "baseline.name": str,
+    "baseline.config": dict,
+    "baseline.entry_point": (str, type(None)),
+    "protocol": str,
+    "n_agents": int,
+    "packages": dict,
+    "records": list,
+}
+"""The fields around the records, as :func:`write_submission` writes them (a dotted name is a field of a
+field), and their JSON types."""
+JSON_TYPES = {dict: "an object", str: "a string", int: "a whole number", list: "a list", type(None): "null"}
+
+
+def check_header(body: dict, path: Path) -> None:
+    """The fields of :data:`HEADER` are there, each of its type; ``n_agents`` is at least 1."""
+    for name, types in HEADER.items():
+        *parents, field = name.split(".")
+        holder = body
+        for parent in parents:  # checked before as an object: HEADER lists a field before its fields
+            holder = holder[parent]
+        if field not in holder:
+            raise SubmissionError(f"{path}: field {name!r} missing")
+        value, types = holder[field], types if isinstance(types, tuple) else (types,)
+        if not isinstance(value, types) or isinstance(value, bool):
+            expected = " or ".join(JSON_TYPES[kind] for kind in types)
+            raise SubmissionError(f"{path}: field {name!r} is {json.dumps(value)[:40]}, not {expected}")
+    if body["n_agents"] < 1:
+        raise SubmissionError(f"{path}: field 'n_agents' is {body['n_agents']}, not a whole number >= 1")
+
+
 def check(body: dict, path: Path) -> Suite:
     """Everything ``--add`` requires; raises :class:`SubmissionError` naming the first problem."""
     if body.get("checksum") != checksum(body):
         raise SubmissionError(
             f"{path}: checksum does not match the content: the file was changed after it was written"
         )
-    for name in ("suite", "baseline", "protocol", "n_agents", "packages", "records"):
-        if name not in body:
-            raise SubmissionError(f"{path}: field {name!r} missing")
+    check_header(body, path)
     try:
-        suite = get_suite(str(body["suite"].get("name")))
+        suite = get_suite(body["suite"]["name"])
     except LayoutError as error:
         raise SubmissionError(f"{path}: {error}") from None
-    if body["suite"].get("version") != suite.version:
+    if body["suite"]["version"] != suite.version:
         raise SubmissionError(
-            f"{path}: made for suite {suite.name} version {body['suite'].get('version')}; "
+            f"{path}: made for suite {suite.name} version {body['suite']['version']}; "
             f"this cabinbench ships version {suite.version}"
         )
     shipped = suite.content_hashes()
-    for layout, given in sorted(body["suite"].get("layout_hashes", {}).items()):
+    for layout, given in sorted(body["suite"]["layout_hashes"].items()):
         if shipped.get(layout, given) != given:
             raise SubmissionError(
                 f"{path}: layout {layout} has hash {given}, the suite as shipped has {shipped[layout]}; "
                 "run it again on the shipped layout"
             )
     records = body["records"]
-    if not isinstance(records, list) or not records:
+    if not records:
         raise SubmissionError(f"{path}: no records")
     seeds: dict[str, list[int]] = {}
     for index, record in enumerate(records):

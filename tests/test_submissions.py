@@ -134,6 +134,20 @@ def drop_field(name):
 
 
 REJECTIONS = {
+    "suite not an object": (set_in(["suite"], "classic"), "field 'suite' is \"classic\", not an object"),
+    "baseline without its config": (
+        lambda body: body["baseline"].pop("config"),
+        "field 'baseline.config' missing",
+    ),
+    "team size not a number": (
+        set_in(["n_agents"], "two"),
+        "field 'n_agents' is \"two\", not a whole number",
+    ),
+    "team size 0": (set_in(["n_agents"], 0), "field 'n_agents' is 0, not a whole number >= 1"),
+    "entry point not a string": (
+        set_in(["baseline", "entry_point"], 5),
+        "field 'baseline.entry_point' is 5, not a string or null",
+    ),
     "unknown suite": (set_in(["suite", "name"], "nope"), "unknown suite"),
     "other suite version": (set_in(["suite", "version"], 0), "made for suite classic version 0"),
     "suite hash": (
