@@ -45,6 +45,8 @@ from .layout import RESOLUTION
 from .world import TIME_STEP, StepEvents, World
 
 COVERAGE_THRESHOLDS = (0.90, 0.95, 0.99)
+REACH_TIMES = tuple(f"t{round(threshold * 100)}" for threshold in COVERAGE_THRESHOLDS)
+"""The metrics of the time to reach each threshold (t90, t95, t99): None in an episode that never does."""
 METRICS = (
     "coverage",
     "coverage_free",
@@ -170,7 +172,7 @@ class EpisodeTracker:
             "path_efficiency": self.path_efficiency(),
             "time": self.steps * TIME_STEP,
             "steps": self.steps,
-            **{f"t{round(t * 100)}": reached for t, reached in self.threshold_times.items()},
+            **dict(zip(REACH_TIMES, self.threshold_times.values())),
             "collisions": self.collisions,
             "bound_violations": self.bound_violations,
             "rotation": self.rotation,

@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .metrics import COVERAGE_THRESHOLDS, METRICS, TEAM_METRICS
+from .metrics import METRICS, REACH_TIMES, TEAM_METRICS
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -52,7 +52,6 @@ if TYPE_CHECKING:
 CONFIDENCE = 0.95
 RESAMPLES = 9_999
 BOOTSTRAP_SEED = 0
-REACH_TIMES = tuple(f"t{round(threshold * 100)}" for threshold in COVERAGE_THRESHOLDS)  # t90, t95, t99
 MIN_CORRELATION_PAIRS = 10  # fewer pairs: a rank correlation without interval (see spearman)
 RATES = ("success",)  # booleans per episode: a rate with a Wilson interval
 # what an episode's outcome is: every metric but the machine's wall-clock time

@@ -33,7 +33,7 @@ from . import __version__
 from .agents import ENTRY_POINT_GROUP, registered_baselines
 from .cli import UsageError
 from .layout import LayoutError, load_layout
-from .metrics import METRICS, TEAM_METRICS
+from .metrics import METRICS, REACH_TIMES, TEAM_METRICS
 from .records import RECORD_FIELDS, safe_name
 from .suites import Suite, get_suite
 
@@ -109,6 +109,27 @@ def metric_names(n_agents: int) -> tuple[str, ...]:
     return (*METRICS, *TEAM_METRICS) if n_agents > 1 else METRICS
 
 
+def metric_problem(name: str, value) -> str | None:
+    """What is wrong with a record's value of metric ``name`` (:mod:`cabinbench.metrics`), or None."""
+    if name == "success":
+        return None if isinstance(value, bool) else "not true or false"
+    if name == "path_lengths":  # one per robot
+        return None if isinstance(value, list) and all(map(_number, value)) else "not a list of numbers >= 0"
+    if value is None and name in REACH_TIMES:  # never reached
+        return None
+    return None if _number(value) else "not a number >= 0"
+
+
+def _number(value) -> bool:
+    """A finite number >= 0, as every metric's values are."""
+    return (
+        isinstance(value, (int, float))
+        and not isinstance(value, bool)
+        and math.isfinite(value)
+        and value >= 0
+    )
+
+
 def check_record(index: int, record, body: dict) -> None:
     """A well-formed record of this submission's entry."""
     if not isinstance(record, dict):
@@ -127,18 +148,16 @@ def check_record(index: int, record, body: dict) -> None:
             raise SubmissionError(
                 f"record {index}: {name} {record[name]!r} differs from the submission's {value!r}"
             )
+    for name in ("layout", "layout_hash"):
+        if not isinstance(record[name], str):
+            raise SubmissionError(f"record {index}: {name} {record[name]!r} is not a string")
     for name in ("seed", "episode"):
         if not isinstance(record[name], int) or isinstance(record[name], bool) or record[name] < 0:
             raise SubmissionError(f"record {index}: {name} {record[name]!r} is not a whole number >= 0")
-    for name in ("coverage", "time", "path_length", "collisions"):
-        value = record[name]
-        if (
-            not isinstance(value, (int, float))
-            or isinstance(value, bool)
-            or not math.isfinite(value)
-            or value < 0
-        ):
-            raise SubmissionError(f"record {index}: {name} {value!r} is not a number >= 0")
+    for name in metric_names(body["n_agents"]):
+        problem = metric_problem(name, record[name])
+        if problem:
+            raise SubmissionError(f"record {index}: {name} {record[name]!r} is {problem}")
     if not 0 <= record["coverage"] <= 1:
         raise SubmissionError(f"record {index}: coverage {record['coverage']!r} is outside [0, 1]")
 

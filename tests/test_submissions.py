@@ -174,6 +174,12 @@ REJECTIONS = {
     "missing field": (drop_field("coverage"), "record 0: field 'coverage' missing"),
     "bad number": (set_in(["records", 0, "coverage"], 1.5), "record 0: coverage 1.5 is outside [0, 1]"),
     "not a number": (set_in(["records", 0, "time"], "soon"), "record 0: time 'soon' is not a number"),
+    "success not a truth value": (
+        set_in(["records", 0, "success"], "yes"),
+        "record 0: success 'yes' is not true",
+    ),
+    "reach time negative": (set_in(["records", 0, "t90"], -1.0), "record 0: t90 -1.0 is not a number >= 0"),
+    "layout not a string": (set_in(["records", 0, "layout"], [1]), "record 0: layout [1] is not a string"),
     "mixed entry": (
         set_in(["records", 2, "baseline"], "random_bounce"),
         "record 2: baseline 'random_bounce'",
