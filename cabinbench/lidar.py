@@ -92,6 +92,19 @@ class LidarConfig:
     field_of_view: float = 2 * math.pi
     noise: float = 0.0
 
+    def __post_init__(self) -> None:
+        # named as the envs' arguments, which users give
+        if not isinstance(self.n_rays, int) or isinstance(self.n_rays, bool) or self.n_rays < 1:
+            raise ValueError(f"n_rays must be a whole number of rays >= 1, got {self.n_rays!r}")
+        if not (_is_number(self.max_range) and self.max_range > 0):
+            raise ValueError(f"lidar_range must be a positive distance in metres, got {self.max_range!r}")
+        if not (_is_number(self.field_of_view) and 0 < self.field_of_view <= 2 * math.pi + 1e-9):
+            raise ValueError(
+                f"field_of_view must be an angle in (0, 2 pi] radians, got {self.field_of_view!r}"
+            )
+        if not (_is_number(self.noise) and self.noise >= 0):
+            raise ValueError(f"lidar_noise must be a distance in metres >= 0 (0: none), got {self.noise!r}")
+
     def ray_angles(self) -> np.ndarray:
         if self.field_of_view >= 2 * math.pi - 1e-9:  # full circle: do not cast the same ray twice
             return np.linspace(-math.pi, math.pi, self.n_rays, endpoint=False)
@@ -193,3 +206,8 @@ def encode_scan(distances, tags, max_range, out):
             out[base + 1 + k] = 0.0
         if tags[r] != NO_HIT:
             out[base + tags[r]] = 1.0
+
+
+def _is_number(value) -> bool:
+    """A finite int or float (not a bool)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)

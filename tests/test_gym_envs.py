@@ -127,6 +127,29 @@ def test_random_full_cabin_episode_has_every_metric():
     assert 0 < record["coverage"] < 0.5 and record["collisions"] > 0
 
 
+BAD_SETTINGS = [
+    ("n_rays", 0),
+    ("n_rays", 2.5),
+    ("lidar_range", -1.0),
+    ("lidar_range", float("nan")),
+    ("field_of_view", 0.0),
+    ("field_of_view", 7.0),
+    ("lidar_noise", -0.1),
+]
+
+
+@pytest.mark.parametrize("name, value", [*BAD_SETTINGS, ("max_steps", 0), ("max_steps", -5)])
+def test_bad_env_settings_are_refused_naming_the_argument(name, value):
+    with pytest.raises(ValueError, match=f"^{name} must be"):
+        gym.make("CabinBench/Coverage-v0", **{name: value})
+
+
+@pytest.mark.parametrize("name, value", [*BAD_SETTINGS, ("max_cycles", 0)])
+def test_bad_team_env_settings_are_refused_naming_the_argument(name, value):
+    with pytest.raises(ValueError, match=f"^{name} must be"):
+        cabinbench.parallel_env(layout="a320_cell", n_agents=2, **{name: value})
+
+
 def test_bad_actions_are_clipped_or_refused():
     env = gym.make("CabinBench/A320Cell-v0").unwrapped
     env.reset(seed=0)

@@ -134,6 +134,13 @@ def checked_action(action, shape: tuple[int, ...] = (2,), name: str = "action") 
     return np.clip(action, -1.0, 1.0).reshape(-1, 2)
 
 
+def checked_step_limit(steps: int | None, name: str = "max_steps") -> int | None:
+    """A step limit as given: None (the layout's own) or a whole number >= 1."""
+    if steps is not None and (not isinstance(steps, int) or isinstance(steps, bool) or steps < 1):
+        raise ValueError(f"{name} must be a whole number of steps >= 1 (None: the layout's), got {steps!r}")
+    return steps
+
+
 def observation_space(size: int) -> gym.spaces.Box:
     """Ray blocks lie in [0, 1]; the two velocity entries in [-1, 1]."""
     low = np.zeros(size, dtype=np.float32)
@@ -163,7 +170,7 @@ class CoverageEnv(gym.Env):
     ):
         lidar = LidarConfig(n_rays, lidar_range, field_of_view, lidar_noise)
         self._world_settings = (protocol, lidar, CoveragePatch(coverage_patch, coverage_patch_cell))
-        self._step_limit, self._random_start = max_steps, random_start
+        self._step_limit, self._random_start = checked_step_limit(max_steps), random_start
         self.use_layout(layout if isinstance(layout, Layout) else load_layout(layout))
         if reward not in REWARD_PRESETS:
             raise ValueError(f"unknown reward preset {reward!r}; choose one of {REWARD_PRESETS}")

@@ -99,7 +99,7 @@ from ..metrics import EpisodeTracker
 from ..render import EnvRenderer
 from ..rewards import REWARD_PRESETS, reward
 from ..world import World, random_start_poses, start_cell_spots
-from .coverage_env import checked_action, observation_space
+from .coverage_env import checked_action, checked_step_limit, observation_space
 
 STATE_ENTRIES_PER_ROBOT = 6  # x, y, cos heading, sin heading, forward speed, turn rate
 TEAM_STATE_ENTRIES = 4  # coverage, cells cleared, current cell, elapsed steps
@@ -144,7 +144,7 @@ class TeamCoverageEnv(ParallelEnv):
         patch = CoveragePatch(coverage_patch, coverage_patch_cell)
         self.world = World(self.layout, n_agents, protocol, lidar, patch)  # raises when K robots do not fit
         self.reward_preset, self.team_weight, self.record_in_info = reward, team_weight, record_in_info
-        self.max_cycles = max_cycles or self.layout.max_steps
+        self.max_cycles = checked_step_limit(max_cycles, "max_cycles") or self.layout.max_steps
         self.render_mode = render_mode
         self.start_spots = start_cell_spots(self.layout) if random_start else None
 
