@@ -125,6 +125,20 @@ def test_actions_of_another_shape_are_refused_with_the_expected_shape(shape):
         team.step({"robot_0": np.zeros(2), "robot_1": np.zeros(shape)})
 
 
+@pytest.mark.parametrize(
+    "make, name, value",
+    [
+        (BatchedCoverageEnv, "num_envs", 0),
+        (BatchedCoverageEnv, "num_envs", 2.5),
+        (BatchedCoverageEnv, "num_workers", 0),
+        (BatchedTeamEnv, "num_envs", 0),
+    ],
+)
+def test_a_batch_of_no_envs_or_workers_is_refused_naming_the_argument(make, name, value):
+    with pytest.raises(ValueError, match=f"^{name} must be a whole number >= 1"):
+        make("a320_cell", **{name: value})
+
+
 def test_team_infos_without_the_record_keep_the_reset_keys_and_convert_to_tensors():
     """TorchRL's PettingZooWrapper builds its info spec from the reset's infos, then writes every
     step's info values into it with ``torch.tensor``."""

@@ -144,10 +144,13 @@ def test_bad_env_settings_are_refused_naming_the_argument(name, value):
         gym.make("CabinBench/Coverage-v0", **{name: value})
 
 
-@pytest.mark.parametrize("name, value", [*BAD_SETTINGS, ("max_cycles", 0)])
+TEAM_BAD_SETTINGS = [("max_cycles", 0), ("n_agents", 0), ("n_agents", 2.0), ("team_weight", float("nan"))]
+
+
+@pytest.mark.parametrize("name, value", [*BAD_SETTINGS, *TEAM_BAD_SETTINGS, ("team_weight", -1.0)])
 def test_bad_team_env_settings_are_refused_naming_the_argument(name, value):
     with pytest.raises(ValueError, match=f"^{name} must be"):
-        cabinbench.parallel_env(layout="a320_cell", n_agents=2, **{name: value})
+        cabinbench.parallel_env(**{"layout": "a320_cell", "n_agents": 2, name: value})
 
 
 def test_bad_actions_are_clipped_or_refused():

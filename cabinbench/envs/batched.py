@@ -22,7 +22,7 @@ from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
 from ..world import TIME_STEP
-from .coverage_env import CoverageEnv, checked_action
+from .coverage_env import CoverageEnv, checked_action, checked_count
 from .suite_env import SuiteEnv
 
 _CONTEXT = multiprocessing.get_context("spawn")  # no fork of torch's threads
@@ -237,6 +237,8 @@ class BatchedCoverageEnv:
         suite: str | None = None,
         **env_kwargs,
     ):
+        checked_count(num_envs, "num_envs")
+        checked_count(num_workers, "num_workers")
         if suite:
             examples = [SuiteEnv(suite, **env_kwargs)]  # spaces and settings, for callers
             self.layout_names = [suite]

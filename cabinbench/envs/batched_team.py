@@ -58,7 +58,7 @@ import torch
 from tensordict import TensorDict
 
 from .batched import EpisodeLog, RslRlVecEnv
-from .coverage_env import checked_action, observation_config
+from .coverage_env import checked_action, checked_count, observation_config
 from .team_env import TeamCoverageEnv
 
 
@@ -77,7 +77,7 @@ class BatchedTeamEnv:
         **env_kwargs,
     ):
         names = list(layout) if isinstance(layout, (list, tuple)) else [layout]
-        self.n_agents, self.num_teams = n_agents, num_envs
+        self.n_agents, self.num_teams = n_agents, checked_count(num_envs, "num_envs")
         self.num_envs = num_envs * n_agents  # rows: what rsl-rl calls envs
         self.envs = [
             TeamCoverageEnv(

@@ -134,11 +134,16 @@ def checked_action(action, shape: tuple[int, ...] = (2,), name: str = "action") 
     return np.clip(action, -1.0, 1.0).reshape(-1, 2)
 
 
+def checked_count(value, name: str, note: str = "") -> int:
+    """``value`` of the argument ``name`` if it is a whole number >= 1, else a ValueError naming it."""
+    if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+        raise ValueError(f"{name} must be a whole number >= 1{note}, got {value!r}")
+    return value
+
+
 def checked_step_limit(steps: int | None, name: str = "max_steps") -> int | None:
     """A step limit as given: None (the layout's own) or a whole number >= 1."""
-    if steps is not None and (not isinstance(steps, int) or isinstance(steps, bool) or steps < 1):
-        raise ValueError(f"{name} must be a whole number of steps >= 1 (None: the layout's), got {steps!r}")
-    return steps
+    return None if steps is None else checked_count(steps, name, " (None: the layout's)")
 
 
 def observation_space(size: int) -> gym.spaces.Box:

@@ -99,7 +99,7 @@ from ..metrics import EpisodeTracker
 from ..render import EnvRenderer
 from ..rewards import REWARD_PRESETS, reward
 from ..world import World, random_start_poses, start_cell_spots
-from .coverage_env import checked_action, checked_step_limit, observation_space
+from .coverage_env import checked_action, checked_count, checked_step_limit, observation_space
 
 STATE_ENTRIES_PER_ROBOT = 6  # x, y, cos heading, sin heading, forward speed, turn rate
 TEAM_STATE_ENTRIES = 4  # coverage, cells cleared, current cell, elapsed steps
@@ -131,8 +131,7 @@ class TeamCoverageEnv(ParallelEnv):
         record_in_info: bool = True,
         random_start: bool = False,
     ):
-        if n_agents < 1:
-            raise ValueError(f"n_agents must be at least 1, got {n_agents}")
+        checked_count(n_agents, "n_agents")
         if reward not in REWARD_PRESETS:
             raise ValueError(f"unknown reward preset {reward!r}; choose one of {REWARD_PRESETS}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -143,6 +142,8 @@ class TeamCoverageEnv(ParallelEnv):
         lidar = LidarConfig(n_rays, lidar_range, field_of_view, lidar_noise)
         patch = CoveragePatch(coverage_patch, coverage_patch_cell)
         self.world = World(self.layout, n_agents, protocol, lidar, patch)  # raises when K robots do not fit
+        if not (isinstance(team_weight, (int, float)) and math.isfinite(team_weight) and team_weight >= 0):
+            raise ValueError(f"team_weight must be a number >= 0, got {team_weight!r}")
         self.reward_preset, self.team_weight, self.record_in_info = reward, team_weight, record_in_info
         self.max_cycles = checked_step_limit(max_cycles, "max_cycles") or self.layout.max_steps
         self.render_mode = render_mode
