@@ -22,6 +22,10 @@ class RandomBounce(Baseline):
     name = "random_bounce"
 
     def __init__(self, min_turn: float = math.pi / 4, **config):
+        if not (
+            isinstance(min_turn, (int, float)) and not isinstance(min_turn, bool) and 0 <= min_turn <= math.pi
+        ):
+            raise ValueError(f"min_turn must be an angle in radians from 0 to pi, got {min_turn!r}")
         super().__init__(min_turn=min_turn, **config)
         self.min_turn = min_turn
 

@@ -51,6 +51,14 @@ CASES = {
         [*RUN[:2], "boustrophedon", *RUN[3:], "--config", '{"speed": 1}'],
         ["--config", "'boustrophedon' does not take speed", "no settings"],
     ),
+    "run: a setting of the wrong kind": (
+        [*RUN, "--config", '{"min_turn": "wide"}'],
+        ["--baseline random_bounce", "min_turn must be an angle in radians from 0 to pi, got 'wide'"],
+    ),
+    "run: stochastic not true or false": (
+        [*RUN[:2], "ppo", *RUN[3:], "--config", '{"stochastic": "no"}'],
+        ["--baseline ppo", "stochastic must be true or false, got 'no'"],
+    ),
     "run: missing checkpoint": (
         [*RUN[:2], "ppo", *RUN[3:], "--config", '{"checkpoint": "nope.pt"}'],
         ["--baseline ppo", "nope.pt: policy file not found", "--ship"],

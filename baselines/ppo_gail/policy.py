@@ -275,11 +275,12 @@ class LearnedPolicy(Baseline):
     ) -> None:
         if config:
             raise TypeError(f"{self.name} takes only `checkpoint` and `stochastic`, not {sorted(config)}")
+        if not isinstance(stochastic, bool):  # bool("no") is True
+            raise ValueError(f"stochastic must be true or false, got {stochastic!r}")
         settings = {"checkpoint": str(checkpoint)} if checkpoint is not None else {}
-        settings["stochastic"] = bool(stochastic)
-        super().__init__(**settings)
+        super().__init__(**settings, stochastic=stochastic)
         self.path = Path(checkpoint) if checkpoint is not None else CHECKPOINT_DIR / f"{self.name}.pt"
-        self.stochastic = bool(stochastic)
+        self.stochastic = stochastic
         self.policy = load_policy(self.path)
         if self.policy["ablation"] != self.ablation:
             raise PolicyFileError(
@@ -392,7 +393,7 @@ class PPOGailStudy(Baseline):
         settings = {
             key: str(value) for key, value in (("cleaning", cleaning), ("tracking", tracking)) if value
         }
-        super().__init__(**settings, stochastic=bool(stochastic))
+        super().__init__(**settings, stochastic=stochastic)
         self.networks = {
             stage: PPOGail(path or CHECKPOINT_DIR / f"{self.name}_{stage}.pt", stochastic)
             for stage, path in (("cleaning", cleaning), ("tracking", tracking))
