@@ -281,12 +281,23 @@ def plan(args) -> tuple[str | None, list[str], int, bool]:
     if args.episodes is not None:
         raise UsageError("--episodes goes with --layout; with --suite use --episodes-per-layout")
     suite = get_suite(args.suite)
-    start = args.start or ("fixed" if suite.builtin else "random")
+    protocol_start = "random" if suite.random_start else "fixed"
+    if args.submission:  # what a submission must follow: refused now, not at --add after the run
+        for given, option in (
+            (args.layouts is not None and args.layouts < len(suite), "--layouts"),
+            (args.max_steps is not None, "--max-steps"),
+            (args.start not in (None, protocol_start), "--start"),
+        ):
+            if given:
+                raise UsageError(
+                    f"{option}: a submission follows the suite's protocol (every layout, each with its own "
+                    f"step limit, a {protocol_start} start); drop {option}"
+                )
     return (
         suite.name,
         list(suite.layout_names[: args.layouts]),
         args.episodes_per_layout or 1,
-        start == "random",
+        (args.start or protocol_start) == "random",
     )
 
 

@@ -15,7 +15,9 @@ The checksum is the SHA-256 of the canonical JSON (sorted keys, no spaces) of ev
 ``results/submissions/``; ``leaderboard --verify`` replays some of its episodes (:func:`verify`).
 
 The protocol (:mod:`cabinbench.suites`): every layout of the suite, the same number N of episodes
-on each, from base seed 0, so the layout at position p plays the episode seeds p*N ... p*N+N-1.
+on each, from base seed 0, so the layout at position p plays the episode seeds p*N ... p*N+N-1; each
+episode with its layout's step limit (the suite manifest's) and the suite's start (random, or the
+layout's own in classic).
 """
 
 from __future__ import annotations
@@ -198,6 +200,26 @@ def check_header(body: dict, path: Path) -> None:
         raise SubmissionError(f"{path}: field 'n_agents' is {body['n_agents']}, not a whole number >= 1")
 
 
+def check_protocol(index: int, record: dict, suite: Suite) -> None:
+    """The record's episode ran as the suite's protocol has it: the layout's own step limit (a longer one
+    would cover more, and replay would confirm it) and the protocol's start."""
+    config, layout = record["env_config"], record["layout"]
+    if not isinstance(config, dict):
+        raise SubmissionError(f"record {index}: env_config {config!r} is not an object")
+    limit = suite.manifest()[layout]["max_steps"]
+    if config.get("max_steps") != limit:
+        raise SubmissionError(
+            f"record {index}: {layout} ran with max_steps {config.get('max_steps')!r}, the suite's protocol "
+            f"gives it {limit}; run it again without --max-steps"
+        )
+    if bool(config.get("random_start", False)) != suite.random_start:
+        start = "a random start" if suite.random_start else "the layout's start"
+        raise SubmissionError(
+            f"record {index}: {layout} ran from another start than the suite's protocol ({start}); "
+            "run it again without --start"
+        )
+
+
 def check(body: dict, path: Path) -> Suite:
     """Everything ``--add`` requires; raises :class:`SubmissionError` naming the first problem."""
     if body.get("checksum") != checksum(body):
@@ -239,6 +261,7 @@ def check(body: dict, path: Path) -> Suite:
                 f"record {index}: layout {layout} hash {record['layout_hash']}, the suite as shipped has "
                 f"{shipped[layout]}; run it again on the shipped layout"
             )
+        check_protocol(index, record, suite)
         seeds.setdefault(layout, []).append(record["seed"] + record["episode"])
     per_layout = len(seeds.get(suite.layout_names[0], []))
     for position, layout in enumerate(suite.layout_names):

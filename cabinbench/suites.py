@@ -69,6 +69,12 @@ class Suite:
         return tuple(f"{self.name}/{position:04d}" for position in range(self.indices[1] - self.indices[0]))
 
     @property
+    def random_start(self) -> bool:
+        """The protocol's start: a pose drawn from the episode's seed (generated suites), or the layout's
+        own (a listed suite: classic's layouts each have their designed start)."""
+        return self.builtin is None
+
+    @property
     def families(self) -> tuple[str, ...]:
         return (self.family,) if self.family else ()
 

@@ -16,7 +16,7 @@ from .plugin import install_spinner
 
 ROOT = Path(__file__).resolve().parents[1]
 CLASSIC = get_suite("classic")
-STEPS = "8"  # short episodes: every layout of the suite, the protocol's seeds, each a few steps
+STEPS = "8"  # short episodes, for the benchmark's own records beside the submission
 PER_LAYOUT = 2
 
 
@@ -29,7 +29,7 @@ def plugin(tmp_path_factory):
         patch.syspath_prepend(str(site))
         submission = root / "spinner.json"
         arguments = ["--baseline", "spinner", "--suite", "classic", "--episodes-per-layout", str(PER_LAYOUT)]
-        out = ["--max-steps", STEPS, "--out", str(root / "runs"), "--submission", str(submission)]
+        out = ["--out", str(root / "runs"), "--submission", str(submission)]  # the protocol's step limits
         assert run.main([*arguments, *out]) == 0
         yield root, site, submission
 
@@ -185,6 +185,14 @@ REJECTIONS = {
         "record 2: baseline 'random_bounce'",
     ),
     "no records": (set_in(["records"], []), "no records"),
+    "longer step limit": (
+        set_in(["records", 0, "env_config", "max_steps"], 99999),
+        "record 0: a320_cell ran with max_steps 99999, the suite's protocol gives it 1500",
+    ),
+    "random start on classic": (
+        set_in(["records", 0, "env_config", "random_start"], True),
+        "record 0: a320_cell ran from another start than the suite's protocol (the layout's start)",
+    ),
 }
 
 
