@@ -123,6 +123,8 @@ def test_actions_of_another_shape_are_refused_with_the_expected_shape(shape):
     team.reset(seed=0)
     with pytest.raises(ValueError, match=r"the action of robot_1 must have shape \(2,\)"):
         team.step({"robot_0": np.zeros(2), "robot_1": np.zeros(shape)})
+    with pytest.raises(ValueError, match="actions must be a dict of agent name to action"):
+        team.step([np.zeros(2), np.zeros(shape)])
 
 
 @pytest.mark.parametrize(

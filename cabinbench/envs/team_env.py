@@ -203,6 +203,10 @@ class TeamCoverageEnv(ParallelEnv):
     def step(self, actions: dict):
         if not self.agents:
             raise RuntimeError("no live agents: call reset() before step()")
+        if not isinstance(actions, dict):
+            raise ValueError(
+                f"actions must be a dict of agent name to action, as {{'robot_0': [1, 0]}}, got {actions!r}"
+            )
         commands = np.zeros((self.world.n_robots, 2))
         for agent, action in actions.items():
             if agent not in self._index:
