@@ -65,7 +65,10 @@ class FieldChecker:
 
     def number(self, value, field_name: str, positive: bool = True, allow_zero: bool = False) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            self.fail(field_name, f"expected a number, got {value!r}", "write a number in metres/seconds")
+            fix = "write a number in metres/seconds"
+            if _exponent_as_text(value):
+                fix = f"YAML reads {value} as text: write a point and a signed exponent, as 1.0e+6"
+            self.fail(field_name, f"expected a number, got {value!r}", fix)
         if positive and (value < 0 or (value == 0 and not allow_zero)):
             self.fail(
                 field_name,
@@ -233,3 +236,13 @@ class LayoutKind:
     name: str
     build: Callable[[FieldChecker, object, RobotSpec], KindGeometry]
     derives_cells: str | None = None  # the kind makes its own cells; the fix for a file giving ``cells``
+
+
+def _exponent_as_text(value) -> bool:
+    """A finite number in exponent form that YAML 1.1 (PyYAML) reads as a string, such as ``1e6``."""
+    if not isinstance(value, str) or "e" not in value.lower():
+        return False
+    try:
+        return math.isfinite(float(value))
+    except ValueError:
+        return False

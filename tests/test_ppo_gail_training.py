@@ -136,12 +136,14 @@ def test_train_interrupt_resume_export_reload_and_evaluate(tmp_path, monkeypatch
 
 
 def test_a_run_interrupted_and_resumed_trains_exactly_the_policy_of_one_that_ran_through(
-    tmp_path, monkeypatch
+    tmp_path, monkeypatch, capsys
 ):
     """The checkpoint keeps the envs' episodes (here 2 steps into their second one), torch's random state
-    and the logger's sums: the resumed iterations are those the run would have trained."""
+    and the logger's sums: the resumed iterations are those the run would have trained. (The run that goes
+    through is "resumed" from nothing, as a sweep's unstarted run is: it says so and starts anew.)"""
     config = tiny_config(validation_episodes=0)
-    through = training.train(config, tmp_path / "through", progress=False)
+    through = training.train(config, tmp_path / "through", resume=True, progress=False)
+    assert f"nothing to resume in {tmp_path / 'through'}: starting a new run" in capsys.readouterr().err
     interrupt_on_call(monkeypatch, 3)
     assert training.train(config, tmp_path / "resumed", progress=False).interrupted
     monkeypatch.undo()

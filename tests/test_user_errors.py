@@ -121,6 +121,10 @@ CASES = {
         ["layouts", "export", "a320_cell", "out", "--resolution", "0"],
         ["argument --resolution", "'0' is not a number > 0"],
     ),
+    "complexity: a number YAML reads as text": (
+        ["complexity", "exponent.yaml"],
+        ["exponent.yaml: field 'grid.cell_size'", "got '1e6'", "YAML reads 1e6 as text", "1.0e+6"],
+    ),
     "complexity: broken layout": (["complexity", "bad.yaml"], ["bad.yaml: field 'kind'", "Fix:"]),
     "complexity: layout not UTF-8": (["complexity", "latin.yaml"], ["latin.yaml", "not UTF-8", "Fix:"]),
     "complexity: layout is a folder": (["complexity", "folder.yaml"], ["folder.yaml", "is a folder", "Fix:"]),
@@ -257,6 +261,7 @@ CASES = {
 
 def write_inputs(folder: Path) -> None:
     (folder / "bad.yaml").write_text("kind: maze\n")
+    (folder / "exponent.yaml").write_text("kind: grid\ngrid:\n  cell_size: 1e6\n  map: |\n    ..S..\n")
     (folder / "latin.yaml").write_bytes(b"kind: grid\n# caf\xe9\n")
     (folder / "folder.yaml").mkdir()
     (folder / "file.txt").write_text("not a folder\n")

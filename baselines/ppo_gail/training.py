@@ -762,6 +762,8 @@ def prepare_run_dir(config: TrainConfig, run_dir: Path, resume: bool) -> Path | 
                 f"cannot resume {run_dir}: the config differs from the saved one in {differences}; "
                 f"only {list(RESUMABLE_CHANGES)} may change"
             )
+    if resume and checkpoint is None:  # a sweep's run that never reached a checkpoint: from the start
+        print(f"nothing to resume in {run_dir}: starting a new run", file=sys.stderr)
     (run_dir / CHECKPOINT_DIR).mkdir(parents=True, exist_ok=True)
     temporary = saved_config_path.with_suffix(".json.tmp")
     temporary.write_text(json.dumps(config.to_dict(), indent=2) + "\n")
