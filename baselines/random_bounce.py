@@ -15,6 +15,7 @@ import math
 import numpy as np
 
 from cabinbench.agents import Baseline, EpisodeContext
+from cabinbench.values import is_real_number
 from cabinbench.world import TIME_STEP
 
 
@@ -22,9 +23,7 @@ class RandomBounce(Baseline):
     name = "random_bounce"
 
     def __init__(self, min_turn: float = math.pi / 4, **config):
-        if not (
-            isinstance(min_turn, (int, float)) and not isinstance(min_turn, bool) and 0 <= min_turn <= math.pi
-        ):
+        if not (is_real_number(min_turn) and 0 <= min_turn <= math.pi):
             raise ValueError(f"min_turn must be an angle in radians from 0 to pi, got {min_turn!r}")
         super().__init__(min_turn=min_turn, **config)
         self.min_turn = min_turn

@@ -20,6 +20,7 @@ import numpy as np
 from numba import njit
 
 from .layout import RESOLUTION, Layout
+from .values import is_real_number, is_whole_number
 
 PATCH_SAMPLES = 3  # samples per patch cell and axis: a 0.25 m cell is read on a 3 x 3 grid
 
@@ -85,13 +86,11 @@ class CoveragePatch:
     cell_size: float = 0.25
 
     def __post_init__(self) -> None:
-        if not isinstance(self.cells, int) or isinstance(self.cells, bool) or self.cells < 0:
+        if not (is_whole_number(self.cells) and self.cells >= 0):
             raise ValueError(
                 f"coverage_patch must be a whole number of cells >= 0 (0: no patch), got {self.cells!r}"
             )
-        if not (
-            isinstance(self.cell_size, (int, float)) and math.isfinite(self.cell_size) and self.cell_size > 0
-        ):
+        if not (is_real_number(self.cell_size) and self.cell_size > 0):
             raise ValueError(f"coverage_patch_cell must be a positive size in metres, got {self.cell_size!r}")
 
     @property

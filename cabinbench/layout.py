@@ -59,6 +59,7 @@ from .layout_fields import (
 from .layout_grid import GRID
 from .layout_occupancy import OCCUPANCY
 from .layout_polygons import POLYGONS
+from .values import is_whole_number
 
 LAYOUT_PATH_VARIABLE = "CABINBENCH_LAYOUT_PATH"
 MARKER_RADIUS = 0.08  # goal cubes and exit landmarks, as the lidar sees them
@@ -480,7 +481,7 @@ def _inside(polygon: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
 
 
 def _cleared_cells(check: FieldChecker, value, cell_count: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < cell_count:
+    if not (is_whole_number(value) and 0 <= value < cell_count):
         check.fail(
             "cleared_cells",
             f"expected 0 to {cell_count - 1}, got {value!r}",

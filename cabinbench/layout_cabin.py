@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .layout_fields import Cell, FieldChecker, KindGeometry, LayoutKind, RobotSpec, rectangle
+from .values import is_whole_number
 
 CABIN_KEYS = {
     "width",
@@ -45,11 +46,7 @@ def build_cabin(check: FieldChecker, block, robot: RobotSpec) -> KindGeometry:
             check.fail(f"cabin.{required}", "missing", f"add cabin.{required} (see layouts/a320_cell.yaml)")
     width = check.number(block["width"], "cabin.width")
     seats = block["seat_blocks"]
-    if (
-        not isinstance(seats, list)
-        or not seats
-        or not all(isinstance(s, int) and not isinstance(s, bool) and s > 0 for s in seats)
-    ):
+    if not isinstance(seats, list) or not seats or not all(is_whole_number(s) and s > 0 for s in seats):
         check.fail(
             "cabin.seat_blocks",
             f"expected a list of seat counts, got {seats!r}",
@@ -147,9 +144,7 @@ def _aisle_widths(check: FieldChecker, value, count: int) -> list[float]:
 def _row_pitches(check: FieldChecker, block: dict, rows: int, pitch: float) -> np.ndarray:
     """The pitch of every row: ``seat_pitch``, or ``exit_row_pitch`` for the ``exit_rows``."""
     exit_rows = block.get("exit_rows", [])
-    if not isinstance(exit_rows, list) or not all(
-        isinstance(r, int) and not isinstance(r, bool) and 0 <= r < rows for r in exit_rows
-    ):
+    if not isinstance(exit_rows, list) or not all(is_whole_number(r) and 0 <= r < rows for r in exit_rows):
         check.fail(
             "cabin.exit_rows", f"expected row numbers 0 to {rows - 1}, got {exit_rows!r}", "fix the list"
         )

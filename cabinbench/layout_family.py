@@ -48,6 +48,7 @@ from .layout import (
     read_text,
 )
 from .layout_fields import CONTACT_CLEARANCE, FieldChecker, RobotSpec
+from .values import is_whole_number
 
 MAX_ATTEMPTS = 32  # draws per index before the family is declared unable to make a layout
 # A gap the robot must pass is kept at least this wide: the study's legroom gap (1.3 robot
@@ -118,7 +119,7 @@ def _check_range(check: FieldChecker, value, field: str, integer: bool = False) 
     if not isinstance(value, list) or len(value) != 2:
         check.fail(field, f"expected a range [low, high], got {value!r}", "write [low, high]")
     for index, bound in enumerate(value):
-        if integer and (isinstance(bound, bool) or not isinstance(bound, int) or bound < 0):
+        if integer and not (is_whole_number(bound) and bound >= 0):
             check.fail(f"{field}[{index}]", f"expected a whole number >= 0, got {bound!r}", "write e.g. 2")
         elif not integer:
             check.number(bound, f"{field}[{index}]", allow_zero=True)
@@ -145,7 +146,7 @@ def _check_family(check: FieldChecker, spec: dict) -> None:
     for key in ("seed", "configurations", *RANGES, "cells", "rows_per_cell", "steps_per_m2"):
         if key not in spec:
             check.fail(key, "missing", FIX)
-    if isinstance(spec["seed"], bool) or not isinstance(spec["seed"], int) or spec["seed"] < 0:
+    if not (is_whole_number(spec["seed"]) and spec["seed"] >= 0):
         check.fail("seed", f"expected a whole number >= 0, got {spec['seed']!r}", "write e.g. seed: 18")
     configurations = spec["configurations"]
     if not isinstance(configurations, list) or not configurations:

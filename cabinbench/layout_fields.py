@@ -9,6 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .values import is_real_number, is_whole_number
+
 CONTACT_CLEARANCE = 0.01  # metres: a reachable pose keeps this from walls, so covering needs no contact
 RESOLUTION = 0.05  # metres per coverage-raster pixel, the seed's map resolution
 
@@ -64,7 +66,7 @@ class FieldChecker:
                 )
 
     def number(self, value, field_name: str, positive: bool = True, allow_zero: bool = False) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if not is_real_number(value):
             fix = "write a number in metres/seconds"
             if _exponent_as_text(value):
                 fix = f"YAML reads {value} as text: write a point and a signed exponent, as 1.0e+6"
@@ -78,7 +80,7 @@ class FieldChecker:
         return float(value)
 
     def positive_int(self, value, field_name: str) -> int:
-        if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+        if not (is_whole_number(value) and value > 0):
             self.fail(field_name, f"expected a positive integer, got {value!r}", "write a whole number ≥ 1")
         return int(value)
 

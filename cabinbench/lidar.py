@@ -17,6 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from .values import is_real_number, is_whole_number
+
 TAGS = ("obstacle", "bound", "goal", "exit", "robot")  # one-hot order in observations
 NO_HIT, OBSTACLE, BOUND, GOAL, EXIT, ROBOT = 0, 1, 2, 3, 4, 5
 GRID_CELL = 1.0  # metres: a scan of 3.5 m range reads 8 x 8 buckets
@@ -94,15 +96,15 @@ class LidarConfig:
 
     def __post_init__(self) -> None:
         # named as the envs' arguments, which users give
-        if not isinstance(self.n_rays, int) or isinstance(self.n_rays, bool) or self.n_rays < 1:
+        if not (is_whole_number(self.n_rays) and self.n_rays >= 1):
             raise ValueError(f"n_rays must be a whole number of rays >= 1, got {self.n_rays!r}")
-        if not (_is_number(self.max_range) and self.max_range > 0):
+        if not (is_real_number(self.max_range) and self.max_range > 0):
             raise ValueError(f"lidar_range must be a positive distance in metres, got {self.max_range!r}")
-        if not (_is_number(self.field_of_view) and 0 < self.field_of_view <= 2 * math.pi + 1e-9):
+        if not (is_real_number(self.field_of_view) and 0 < self.field_of_view <= 2 * math.pi + 1e-9):
             raise ValueError(
                 f"field_of_view must be an angle in (0, 2 pi] radians, got {self.field_of_view!r}"
             )
-        if not (_is_number(self.noise) and self.noise >= 0):
+        if not (is_real_number(self.noise) and self.noise >= 0):
             raise ValueError(f"lidar_noise must be a distance in metres >= 0 (0: none), got {self.noise!r}")
 
     def ray_angles(self) -> np.ndarray:
@@ -206,8 +208,3 @@ def encode_scan(distances, tags, max_range, out):
             out[base + 1 + k] = 0.0
         if tags[r] != NO_HIT:
             out[base + tags[r]] = 1.0
-
-
-def _is_number(value) -> bool:
-    """A finite int or float (not a bool)."""
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)

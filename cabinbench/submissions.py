@@ -38,6 +38,7 @@ from .layout import LayoutError, load_layout
 from .metrics import METRICS, REACH_TIMES, TEAM_METRICS
 from .records import RECORD_FIELDS, safe_name
 from .suites import Suite, get_suite
+from .values import is_real_number, is_whole_number
 
 FORMAT = "cabinbench-submission/1"
 PACKAGES = ("numpy", "scipy", "pymunk", "gymnasium", "pettingzoo")  # what an episode's numbers depend on
@@ -124,12 +125,7 @@ def metric_problem(name: str, value) -> str | None:
 
 def _number(value) -> bool:
     """A finite number >= 0, as every metric's values are."""
-    return (
-        isinstance(value, (int, float))
-        and not isinstance(value, bool)
-        and math.isfinite(value)
-        and value >= 0
-    )
+    return is_real_number(value) and value >= 0
 
 
 def check_record(index: int, record, body: dict) -> None:
@@ -154,7 +150,7 @@ def check_record(index: int, record, body: dict) -> None:
         if not isinstance(record[name], str):
             raise SubmissionError(f"record {index}: {name} {record[name]!r} is not a string")
     for name in ("seed", "episode"):
-        if not isinstance(record[name], int) or isinstance(record[name], bool) or record[name] < 0:
+        if not (is_whole_number(record[name]) and record[name] >= 0):
             raise SubmissionError(f"record {index}: {name} {record[name]!r} is not a whole number >= 0")
     for name in metric_names(body["n_agents"]):
         problem = metric_problem(name, record[name])

@@ -41,6 +41,7 @@ from .complexity import layout_complexity
 from .layout import Layout, LayoutError, builtin_layout_dir, load_layout, parse_yaml, read_text
 from .layout_family import generate
 from .layout_fields import FieldChecker
+from .values import is_whole_number
 
 SHEET_MAX = 100  # layouts on one contact sheet
 SUITE_KEYS = {"name", "version", "description", "family", "indices", "layouts"}
@@ -161,7 +162,7 @@ def _read_suite(path: Path) -> Suite:
     if (
         not isinstance(indices, list)
         or len(indices) != 2
-        or not all(isinstance(i, int) and not isinstance(i, bool) and i >= 0 for i in indices)
+        or not all(is_whole_number(i) and i >= 0 for i in indices)
         or indices[1] <= indices[0]
     ):
         check.fail(

@@ -135,6 +135,9 @@ BAD_SETTINGS = [
     ("field_of_view", 0.0),
     ("field_of_view", 7.0),
     ("lidar_noise", -0.1),
+    ("lidar_range", True),  # YAML's and JSON's true is a bool, which Python counts as 1
+    ("coverage_patch", True),
+    ("coverage_patch_cell", True),
 ]
 
 
@@ -144,7 +147,13 @@ def test_bad_env_settings_are_refused_naming_the_argument(name, value):
         gym.make("CabinBench/Coverage-v0", **{name: value})
 
 
-TEAM_BAD_SETTINGS = [("max_cycles", 0), ("n_agents", 0), ("n_agents", 2.0), ("team_weight", float("nan"))]
+TEAM_BAD_SETTINGS = [
+    ("max_cycles", 0),
+    ("n_agents", 0),
+    ("n_agents", 2.0),
+    ("team_weight", float("nan")),
+    ("team_weight", True),
+]
 
 
 @pytest.mark.parametrize("name, value", [*BAD_SETTINGS, *TEAM_BAD_SETTINGS, ("team_weight", -1.0)])

@@ -104,6 +104,7 @@ from ..lidar import LidarConfig
 from ..metrics import EpisodeTracker
 from ..render import EnvRenderer
 from ..rewards import REWARD_PRESETS, reward
+from ..values import is_whole_number
 from ..world import World, random_start_poses, start_cell_spots
 
 OBSERVATION_SETTINGS = ("n_rays", "lidar_range", "field_of_view", "coverage_patch", "coverage_patch_cell")
@@ -136,7 +137,7 @@ def checked_action(action, shape: tuple[int, ...] = (2,), name: str = "action") 
 
 def checked_count(value, name: str, note: str = "") -> int:
     """``value`` of the argument ``name`` if it is a whole number >= 1, else a ValueError naming it."""
-    if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+    if not (is_whole_number(value) and value >= 1):
         raise ValueError(f"{name} must be a whole number >= 1{note}, got {value!r}")
     return value
 

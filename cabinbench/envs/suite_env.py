@@ -44,6 +44,7 @@ from __future__ import annotations
 import gymnasium as gym
 
 from ..suites import get_suite
+from ..values import is_whole_number
 from .coverage_env import CoverageEnv
 
 
@@ -58,11 +59,7 @@ class SuiteEnv(CoverageEnv):
         self.suite = get_suite(suite)
         names = self.suite.layout_names
         if num_layouts is not None:
-            if (
-                isinstance(num_layouts, bool)
-                or not isinstance(num_layouts, int)
-                or not 1 <= num_layouts <= len(names)
-            ):
+            if not (is_whole_number(num_layouts) and 1 <= num_layouts <= len(names)):
                 raise ValueError(
                     f"num_layouts must be 1 to {len(names)} for suite {suite}, got {num_layouts!r}"
                 )

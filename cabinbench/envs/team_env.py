@@ -98,6 +98,7 @@ from ..lidar import LidarConfig
 from ..metrics import EpisodeTracker
 from ..render import EnvRenderer
 from ..rewards import REWARD_PRESETS, reward
+from ..values import is_real_number
 from ..world import World, random_start_poses, start_cell_spots
 from .coverage_env import checked_action, checked_count, checked_step_limit, observation_space
 
@@ -142,7 +143,7 @@ class TeamCoverageEnv(ParallelEnv):
         lidar = LidarConfig(n_rays, lidar_range, field_of_view, lidar_noise)
         patch = CoveragePatch(coverage_patch, coverage_patch_cell)
         self.world = World(self.layout, n_agents, protocol, lidar, patch)  # raises when K robots do not fit
-        if not (isinstance(team_weight, (int, float)) and math.isfinite(team_weight) and team_weight >= 0):
+        if not (is_real_number(team_weight) and team_weight >= 0):
             raise ValueError(f"team_weight must be a number >= 0, got {team_weight!r}")
         self.reward_preset, self.team_weight, self.record_in_info = reward, team_weight, record_in_info
         self.max_cycles = checked_step_limit(max_cycles, "max_cycles") or self.layout.max_steps
