@@ -79,8 +79,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--template", default="paper/template.md")
     parser.add_argument("--results", default="results")
-    parser.add_argument("--out", type=output_file(".md"), default="paper/paper.md")
+    # no string default: argparse would check it before an unknown option, and report the wrong mistake
+    parser.add_argument("--out", type=output_file(".md"), help="the paper to write (default: paper/paper.md)")
     args = parser.parse_args(argv)
+    out = args.out or Path("paper/paper.md")
     results, template = Path(args.results), Path(args.template)
     if not (results / "leaderboard.md").is_file():
         raise UsageError(
@@ -89,8 +91,10 @@ def main(argv: list[str] | None = None) -> int:
         )
     if not template.is_file():
         raise UsageError(f"--template: no file {template}; give the paper's template (paper/template.md)")
-    args.out.write_text(build(template, results, args.out), encoding="utf-8")
-    print(f"wrote {args.out}")
+    if not out.parent.is_dir():
+        raise UsageError(f"--out: no folder {out.parent} for {out}; create it, or give --out FILE.md")
+    out.write_text(build(template, results, out), encoding="utf-8")
+    print(f"wrote {out}")
     return 0
 
 

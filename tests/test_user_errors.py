@@ -203,6 +203,11 @@ CASES = {
         ["paper", "--results", str(ROOT / "results"), "--template", "nope.md", "--out", "paper.md"],
         ["--template", "no file nope.md"],
     ),
+    "paper: unknown option": (["paper", "--bogus"], ["unrecognized arguments: --bogus"]),
+    "paper: no folder for the default --out": (
+        ["paper", "--results", str(ROOT / "results"), "--template", str(ROOT / "paper" / "template.md")],
+        ["--out: no folder paper", "give --out FILE.md"],
+    ),
     "bench: bad step count": (["bench", "--steps", "0"], ["argument --steps", ">= 1"]),
     "train: unknown baseline": (["train", "--baseline", "nope"], ["unknown baseline 'nope'", "ppo_gail"]),
     "train: a baseline that does not learn": (
