@@ -15,8 +15,8 @@ import math
 import numpy as np
 
 from cabinbench.agents import Baseline, EpisodeContext
+from cabinbench.sim.physics import TIME_STEP
 from cabinbench.values import is_real_number
-from cabinbench.world import TIME_STEP
 
 
 class RandomBounce(Baseline):

@@ -10,9 +10,11 @@ that never imports cabinbench makes them as
 
 import gymnasium
 
-from .layout import Layout, LayoutError, available_layouts, builtin_layout_dir, load_layout
-
-__version__ = "0.1.0"
+from cabinbench.errors import LayoutError
+from cabinbench.layouts.load import available_layouts, builtin_layout_dir
+from cabinbench.layouts.model import Layout
+from cabinbench.layouts.resolve import load_layout
+from cabinbench.version import __version__
 
 ENTRY_POINT = "cabinbench.envs.coverage_env:CoverageEnv"
 
@@ -38,7 +40,7 @@ _register()
 
 def parallel_env(**kwargs):
     """The multi-robot PettingZoo ``ParallelEnv`` (:class:`cabinbench.envs.team_env.TeamCoverageEnv`)."""
-    from .envs.team_env import TeamCoverageEnv  # lazy: plain Gymnasium users need no PettingZoo
+    from cabinbench.envs.team_env import TeamCoverageEnv  # lazy: plain Gymnasium users need no PettingZoo
 
     return TeamCoverageEnv(**kwargs)
 
@@ -50,4 +52,13 @@ def env(**kwargs):
     return parallel_to_aec(parallel_env(**kwargs))
 
 
-__all__ = ["Layout", "LayoutError", "available_layouts", "env", "gym_id", "load_layout", "parallel_env"]
+__all__ = [
+    "Layout",
+    "LayoutError",
+    "__version__",
+    "available_layouts",
+    "env",
+    "gym_id",
+    "load_layout",
+    "parallel_env",
+]

@@ -31,13 +31,10 @@ from typing import ClassVar
 
 import numpy as np
 
-from cabinbench.layout import Layout
+from cabinbench.errors import BaselineError
+from cabinbench.layouts.model import Layout
 
 ENTRY_POINT_GROUP = "cabinbench.baselines"
-
-
-class BaselineError(ValueError):
-    """A baseline name or class that cannot be loaded; the message says what to give instead."""
 
 
 @dataclass(frozen=True)
@@ -50,7 +47,7 @@ class EpisodeContext:
     agent: int = 0
     n_agents: int = 1
     env_config: dict = field(default_factory=dict)  # lidar and reward settings the env was made with
-    observation_layout: dict = field(default_factory=dict)  # part name -> slice (cabinbench.observation)
+    observation_layout: dict = field(default_factory=dict)  # part name -> slice (cabinbench.sim.observation)
 
 
 class Baseline:

@@ -2,7 +2,7 @@
 
 A command builds its parser with :class:`ArgumentParser` (a bad argument: one line, no usage
 block), checks what it can in the argument types below (before any work starts), and wraps its
-``main`` in :func:`user_errors`, which prints a :data:`USER_ERRORS` exception as one line (and
+``main`` in :func:`user_errors`, which prints a :class:`~cabinbench.errors.UserError` as one line (and
 Ctrl-C as ``interrupted``, exit status 130, where the command has nothing better to say).
 """
 
@@ -15,18 +15,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from .agents import BaselineError
-from .layout import LayoutError
-
-EXIT_USAGE = 2
-EXIT_INTERRUPTED = 130  # the shell's status for a process ended by Ctrl-C
-
-
-class UsageError(Exception):
-    """A user mistake a command finds after parsing; the message names the argument or file and the fix."""
-
-
-USER_ERRORS = (UsageError, LayoutError, BaselineError)
+from cabinbench.errors import EXIT_INTERRUPTED, EXIT_USAGE, UserError
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -44,7 +33,7 @@ def user_errors(main: Callable[[list[str] | None], int]) -> Callable[[list[str] 
     def checked(argv: list[str] | None = None) -> int:
         try:
             return main(argv)
-        except USER_ERRORS as error:
+        except UserError as error:
             print(f"error: {error}", file=sys.stderr)
             return EXIT_USAGE
         except KeyboardInterrupt:

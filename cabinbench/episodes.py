@@ -24,13 +24,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import parallel_env
-from .agents import EpisodeContext, load_baseline
-from .envs.coverage_env import CoverageEnv
-from .executors import Executor, JobFailure
-from .executors.local import LocalExecutor
-from .layout import Layout, load_layout
-from .render import draw_frame
+from cabinbench.agents import EpisodeContext, load_baseline
+from cabinbench.envs.coverage_env import CoverageEnv
+from cabinbench.envs.team_env import TeamCoverageEnv
+from cabinbench.executors.base import Executor, JobFailure
+from cabinbench.executors.local import LocalExecutor
+from cabinbench.layouts.model import Layout
+from cabinbench.layouts.resolve import load_layout
+from cabinbench.sim.render import draw_frame
 
 
 @dataclass(frozen=True)
@@ -99,7 +100,7 @@ def make_env(layout: Layout, protocol: str, n_agents: int, env_kwargs: dict):
     team_kwargs = dict(env_kwargs)
     if "max_steps" in team_kwargs:  # PettingZoo's name for the step limit
         team_kwargs["max_cycles"] = team_kwargs.pop("max_steps")
-    return parallel_env(layout=layout, n_agents=n_agents, protocol=protocol, **team_kwargs)
+    return TeamCoverageEnv(layout=layout, n_agents=n_agents, protocol=protocol, **team_kwargs)
 
 
 def run_episode(
@@ -120,7 +121,7 @@ def run_episode(
     heading]`` the robot started from (a team: one per robot). ``trajectory`` holds full-resolution
     arrays: ``positions`` (steps + 1, K, 2) robot centres from ``info["pose"]``, ``coverage``
     (steps + 1,) from ``info["coverage"]``, ``pass_count`` (the final coverage raster, passes
-    per pixel) and, when ``frame_every`` is set, ``frames``: :func:`~cabinbench.render.draw_frame`
+    per pixel) and, when ``frame_every`` is set, ``frames``: :func:`~cabinbench.sim.render.draw_frame`
     pictures at the start, every ``frame_every`` steps and at the end.
     """
     layout = layout if isinstance(layout, Layout) else load_layout(layout)

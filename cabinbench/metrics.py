@@ -1,6 +1,6 @@
 """Coverage metrics: the one place where every metric of an episode record is defined.
 
-An :class:`EpisodeTracker` follows a :class:`~cabinbench.world.World` step by step and produces
+An :class:`EpisodeTracker` follows a :class:`~cabinbench.sim.world.World` step by step and produces
 one record per episode. Definitions (areas are counted on the 0.05 m raster):
 
 - ``coverage``: covered coverable area / coverable area (coverable = what some reachable robot
@@ -41,8 +41,10 @@ import time as clock
 
 import numpy as np
 
-from .layout import RESOLUTION
-from .world import TIME_STEP, StepEvents, World
+from cabinbench.layouts.fields import RESOLUTION
+from cabinbench.sim.events import StepEvents
+from cabinbench.sim.physics import TIME_STEP
+from cabinbench.sim.world import World
 
 COVERAGE_THRESHOLDS = (0.90, 0.95, 0.99)
 REACH_TIMES = tuple(f"t{round(threshold * 100)}" for threshold in COVERAGE_THRESHOLDS)
@@ -90,8 +92,8 @@ def uncovered_by_clearance(
     bands: tuple[float, ...] = CLEARANCE_BANDS,
 ) -> np.ndarray:
     """Uncovered coverable area in each band of ``clearance`` (a pixel centre's distance to the nearest
-    wall, :attr:`~cabinbench.layout.Layout.clearance`) over the whole coverable area: the entries sum to
-    1 - coverage. With a ``pass_count`` of zeros: each band's share of the coverable area."""
+    wall, :attr:`~cabinbench.layouts.model.Layout.clearance`) over the whole coverable area: the
+    entries sum to 1 - coverage. With a ``pass_count`` of zeros: each band's share of the coverable area."""
     band = np.digitize(clearance[coverable_mask], bands[1:])
     uncovered = pass_count[coverable_mask] == 0
     return np.bincount(band[uncovered], minlength=len(bands)) / band.size

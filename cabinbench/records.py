@@ -54,9 +54,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from . import __version__
-from .complexity import layout_complexity
-from .layout import RESOLUTION, Layout, LayoutError, load_layout
+from cabinbench.errors import LayoutError
+from cabinbench.layouts.complexity import layout_complexity
+from cabinbench.layouts.fields import RESOLUTION
+from cabinbench.layouts.model import Layout
+from cabinbench.layouts.resolve import load_layout
+from cabinbench.version import __version__
 
 if TYPE_CHECKING:
     import pandas as pd

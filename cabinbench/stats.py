@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .metrics import METRICS, REACH_TIMES, TEAM_METRICS
+from cabinbench.metrics import METRICS, REACH_TIMES, TEAM_METRICS
 
 if TYPE_CHECKING:
     import pandas as pd

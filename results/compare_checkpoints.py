@@ -18,8 +18,8 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-
 from cabinbench.baselines.ppo_gail.training import VALIDATION_DIR, TrainConfig, read_validation
+
 from cabinbench.episodes import EpisodeJob, run_jobs
 from cabinbench.training_records import best_checkpoint
 

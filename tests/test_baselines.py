@@ -2,13 +2,13 @@
 
 import numpy as np
 import pytest
-
-from cabinbench.agents import EpisodeContext, load_baseline
 from cabinbench.baselines.boustrophedon import plan_layout, record_demonstrations, team_share
 from cabinbench.baselines.ppo_gail.demonstrations import load_demonstrations
+
+from cabinbench.agents import EpisodeContext, load_baseline
 from cabinbench.envs.coverage_env import CoverageEnv
-from cabinbench.layout import load_layout
-from cabinbench.world import TIME_STEP
+from cabinbench.layouts.resolve import load_layout
+from cabinbench.sim.physics import TIME_STEP
 
 
 def run_episode(baseline_name, layout, protocol, seed=0, **env_kwargs):

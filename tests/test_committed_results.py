@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from cabinbench import leaderboard, paper
+from cabinbench.commands import leaderboard, paper
 
 ROOT = Path(__file__).resolve().parents[1]
 

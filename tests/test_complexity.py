@@ -7,8 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from cabinbench.complexity import grid_complexity, layout_complexity, main
-from cabinbench.layout import available_layouts, load_layout, parse_layout
+from cabinbench.commands.complexity import main
+from cabinbench.layouts.complexity import grid_complexity, layout_complexity
+from cabinbench.layouts.load import available_layouts, parse_layout
+from cabinbench.layouts.resolve import load_layout
 
 
 def test_table_4_1_values():

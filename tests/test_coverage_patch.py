@@ -9,9 +9,9 @@ from gymnasium.utils.env_checker import check_env
 from pettingzoo.test import parallel_api_test
 
 from cabinbench import parallel_env
-from cabinbench.coverage import PATCH_SAMPLES, CoveragePatch, write_coverage_patch
 from cabinbench.envs.coverage_env import CoverageEnv
-from cabinbench.layout import RESOLUTION
+from cabinbench.layouts.fields import RESOLUTION
+from cabinbench.sim.coverage import PATCH_SAMPLES, CoveragePatch, write_coverage_patch
 
 from .driving import drive
 

@@ -17,9 +17,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
-from scipy import ndimage
-from scipy.sparse.csgraph import dijkstra
-
 from cabinbench.baselines.coverage_planning import (
     MIN_PLAN_COVERAGE,
     FreeSpace,
@@ -39,10 +36,13 @@ from cabinbench.baselines.coverage_planning import (
 )
 from cabinbench.baselines.coverage_planning import plan as plan_module
 from cabinbench.baselines.path_following import PathFollower
-from cabinbench.cli import UsageError
+from scipy import ndimage
+from scipy.sparse.csgraph import dijkstra
+
 from cabinbench.envs.coverage_env import CoverageEnv
+from cabinbench.errors import UsageError
 from cabinbench.geometry import offsets_from_segments, world_to_pixel
-from cabinbench.world import TIME_STEP
+from cabinbench.sim.physics import TIME_STEP
 
 # The package exports the function ``route`` under the module's name.
 route_module = importlib.import_module("cabinbench.baselines.coverage_planning.route")

@@ -13,7 +13,7 @@ from pettingzoo.test import parallel_api_test
 
 import cabinbench
 from cabinbench.metrics import METRICS
-from cabinbench.observation import LIDAR_CHANNELS
+from cabinbench.sim.observation import LIDAR_CHANNELS
 
 ENV_IDS = [env_id for env_id in gym.registry if env_id.startswith("CabinBench/")]
 TEAM = "team env (a320_cell, 2 robots)"

@@ -7,7 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cabinbench.layout import LayoutError, available_layouts, builtin_layout_dir, load_layout, parse_layout
+from cabinbench.errors import LayoutError
+from cabinbench.layouts.load import available_layouts, builtin_layout_dir, parse_layout
+from cabinbench.layouts.resolve import load_layout
 
 BUILTIN = [
     "a320_cell",

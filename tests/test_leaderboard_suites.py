@@ -8,7 +8,7 @@ import pytest
 from PIL import Image
 from scipy import stats as scipy_stats
 
-from cabinbench import leaderboard
+from cabinbench.commands import leaderboard
 from cabinbench.records import read_records
 from cabinbench.stats import stratified_bootstrap
 from tests.test_run_and_leaderboard import run_main
@@ -141,7 +141,8 @@ def test_generalisation_gap_is_generated_from_the_records_of_every_training_seed
     """A learner with records on cabin-v1-train gets a row of the gap table: its score on the train, test and
     ood splits over both its policies (stratified bootstrap), and test - train with the seeds paired."""
     from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR
-    from cabinbench.leaderboard_table import policy_of
+
+    from cabinbench.leaderboard.table import policy_of
     from cabinbench.stats import stratified_difference
 
     other = tmp_path / "training" / "ppo" / "seed1" / "policy.pt"

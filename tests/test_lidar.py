@@ -9,8 +9,8 @@ import pymunk
 import pytest
 
 from cabinbench.envs.coverage_env import CoverageEnv
-from cabinbench.lidar import BOUND, EXIT, GOAL, NO_HIT, OBSTACLE, ROBOT, cast_rays
-from cabinbench.physics import BOUND_TYPE, WALL_TYPE
+from cabinbench.sim.lidar import BOUND, EXIT, GOAL, NO_HIT, OBSTACLE, ROBOT, cast_rays
+from cabinbench.sim.physics import BOUND_TYPE, WALL_TYPE
 
 SEGMENT_TAGS = {WALL_TYPE: OBSTACLE, BOUND_TYPE: BOUND}
 

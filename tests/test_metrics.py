@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cabinbench.envs.coverage_env import CoverageEnv
-from cabinbench.layout import parse_layout
+from cabinbench.layouts.load import parse_layout
 from cabinbench.metrics import METRICS, overlap, uncovered_by_clearance
 
 from .driving import drive

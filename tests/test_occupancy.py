@@ -17,11 +17,13 @@ from scipy import ndimage
 import cabinbench  # noqa: F401  (registers the envs)
 from cabinbench import env as aec_env
 from cabinbench import parallel_env
-from cabinbench.building_maps import office_floor, write_building
+from cabinbench.commands.layouts import main as layouts_main
 from cabinbench.episodes import run_episode
-from cabinbench.layout import LayoutError, available_layouts, load_layout, parse_layout
-from cabinbench.layouts import main as layouts_main
-from cabinbench.rosmap import occupancy_values
+from cabinbench.errors import LayoutError
+from cabinbench.layouts.building_maps import office_floor, write_building
+from cabinbench.layouts.load import available_layouts, parse_layout
+from cabinbench.layouts.resolve import load_layout
+from cabinbench.layouts.rosmap import occupancy_values
 
 ROOT = Path(__file__).resolve().parents[1]
 ROOM = np.full((60, 80), 254, np.uint8)  # a 4 m x 3 m room at 5 cm: walls around, a pillar

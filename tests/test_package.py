@@ -10,7 +10,8 @@ import textwrap
 from pathlib import Path
 
 import cabinbench
-from cabinbench.agents import BaselineError, load_baseline, registered_baselines
+from cabinbench.agents import load_baseline, registered_baselines
+from cabinbench.errors import BaselineError
 
 from .plugin import install_spinner
 

@@ -5,8 +5,8 @@ import json
 
 import pytest
 
-from cabinbench import run
-from cabinbench.paper_reproduction import range_verdict, ratio_verdict, reproduction_table, value_verdict
+from cabinbench.commands import run
+from cabinbench.paper.reproduction import range_verdict, ratio_verdict, reproduction_table, value_verdict
 from cabinbench.records import read_records
 
 

@@ -13,11 +13,10 @@ os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl's logger imports 
 import numpy as np
 import pytest
 import torch
+from cabinbench.baselines.ppo_gail import ABLATIONS, DemonstrationError, load_demonstrations, make_train_cfg
 from rsl_rl.env import VecEnv
 from rsl_rl.runners import OnPolicyRunner
 from tensordict import TensorDict
-
-from cabinbench.baselines.ppo_gail import ABLATIONS, DemonstrationError, load_demonstrations, make_train_cfg
 
 OBSERVATION_CONFIG = {"policy": ["goal_relative_position_xy", "velocity_xy"]}
 EXTRA_LOSSES = {

@@ -15,15 +15,15 @@ os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl's logger imports 
 
 import numpy as np
 import pytest
-
-from cabinbench.agents import EpisodeContext, load_baseline
 from cabinbench.baselines.boustrophedon import Boustrophedon
 from cabinbench.baselines.ppo_gail import cli, differences, training
 from cabinbench.baselines.ppo_gail.policy import read_policy_file, tracking_or_cleaning
 from cabinbench.baselines.ppo_gail.study import STAGES, study_config
+
+from cabinbench.agents import EpisodeContext, load_baseline
 from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.episodes import run_episode
-from cabinbench.layout import load_layout
+from cabinbench.layouts.resolve import load_layout
 from cabinbench.training_records import read_metrics
 from tests.test_ppo_gail_training import interrupt_on_call
 

@@ -13,13 +13,13 @@ os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl's logger imports 
 import numpy as np
 import pytest
 import torch
+from cabinbench.baselines.ppo_gail import training
+from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR, read_policy_file
+from cabinbench.baselines.ppo_gail.team_training import TeamTrainConfig
 
 import cabinbench
 from cabinbench import training_records
 from cabinbench.agents import load_baseline
-from cabinbench.baselines.ppo_gail import training
-from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR, read_policy_file
-from cabinbench.baselines.ppo_gail.team_training import TeamTrainConfig
 from cabinbench.envs.batched_team import BatchedTeamEnv
 from cabinbench.episodes import run_episode
 

@@ -18,13 +18,13 @@ os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl's logger imports 
 import numpy as np
 import pytest
 import torch
-
-from cabinbench import training_records
-from cabinbench.agents import load_baseline
 from cabinbench.baselines.ppo_gail import training
 from cabinbench.baselines.ppo_gail.algorithm import PPOCuriosityGail
 from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR, PolicyFileError, read_policy_file
 from cabinbench.baselines.ppo_gail.team_training import TeamTrainConfig
+
+from cabinbench import training_records
+from cabinbench.agents import load_baseline
 from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.episodes import run_episode
 
@@ -298,11 +298,11 @@ def _input_size(state_dict: dict) -> int:
 
 
 def test_exported_actor_reproduces_rsl_rl_inference_policy(tmp_path):
+    from cabinbench.baselines.ppo_gail.algorithm import make_train_cfg
+    from cabinbench.baselines.ppo_gail.policy import export_policy
     from rsl_rl.runners import OnPolicyRunner
     from tensordict import TensorDict
 
-    from cabinbench.baselines.ppo_gail.algorithm import make_train_cfg
-    from cabinbench.baselines.ppo_gail.policy import export_policy
     from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
 
     torch.manual_seed(0)
@@ -406,7 +406,7 @@ def test_a_policy_runs_in_the_observation_it_was_trained_on(tmp_path):
     )
     assert record["steps"] == 10
 
-    from cabinbench.run import main as run_main
+    from cabinbench.commands.run import main as run_main
 
     out = tmp_path / "runs"
     assert (
@@ -435,10 +435,10 @@ def test_a_policy_runs_in_the_observation_it_was_trained_on(tmp_path):
 
 def _small_policy(tmp_path, **env_kwargs) -> os.PathLike:
     """An exported, untrained 'ppo' policy for the default 64-ray env (or one made with ``env_kwargs``)."""
-    from rsl_rl.runners import OnPolicyRunner
-
     from cabinbench.baselines.ppo_gail.algorithm import make_train_cfg
     from cabinbench.baselines.ppo_gail.policy import export_policy
+    from rsl_rl.runners import OnPolicyRunner
+
     from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
 
     batched = BatchedCoverageEnv("a320_cell", 2, seed=0, max_steps=20, **env_kwargs)
@@ -547,8 +547,8 @@ def test_shipped_policy_drives_the_env_made_with_its_observation_settings(name):
 def test_ship_installs_the_policy_and_keeps_its_training_records(tmp_path, monkeypatch):
     """``train --ship``: the policy lands where ``run --baseline`` finds it, and the run's config, metrics and
     validation land in results/training/, from which the leaderboard draws the committed training curve."""
-    from cabinbench import leaderboard
-    from cabinbench.train import main as train_main
+    from cabinbench.commands import leaderboard
+    from cabinbench.commands.train import main as train_main
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "checkpoints").mkdir()
@@ -621,8 +621,8 @@ def test_train_on_a_suite_records_it_resumes_and_ships_ppo_gail_suite(tmp_path, 
     the config, the training summary and the exported policy name the suite and its version; the expert
     demonstrates on a seeded handful of suite layouts; validation plays suite layouts; an interrupted suite
     run resumes; the policy ships as ``ppo_gail_suite``, which refuses a policy trained on cells."""
-    from cabinbench.suites import get_suite
-    from cabinbench.train import main as train_main
+    from cabinbench.commands.train import main as train_main
+    from cabinbench.layouts.suites import get_suite
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "checkpoints").mkdir()

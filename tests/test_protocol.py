@@ -4,7 +4,7 @@ and count, exits move the robot on and the bound closes behind it."""
 import numpy as np
 
 from cabinbench.envs.coverage_env import CoverageEnv
-from cabinbench.lidar import BOUND, EXIT, GOAL
+from cabinbench.sim.lidar import BOUND, EXIT, GOAL
 
 from .driving import drive
 
@@ -78,8 +78,8 @@ def test_open_protocol_succeeds_on_coverage():
 def test_every_bound_the_team_passed_closes_once_all_robots_are_through():
     """The leader clears two cells and passes two exits while the other robot waits in cell 0:
     both bounds stay open for it, and both close once it has caught up."""
-    from cabinbench.layout import load_layout
-    from cabinbench.world import World
+    from cabinbench.layouts.resolve import load_layout
+    from cabinbench.sim.world import World
 
     world = World(load_layout("full_cabin"), n_robots=2, protocol="sequential")
     world.reset(np.random.default_rng(0))

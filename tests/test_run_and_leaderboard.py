@@ -16,9 +16,9 @@ import pandas as pd
 import pytest
 from PIL import Image
 
-from cabinbench import leaderboard, run
+from cabinbench.commands import leaderboard, run
 from cabinbench.episodes import run_jobs
-from cabinbench.layout import available_layouts
+from cabinbench.layouts.load import available_layouts
 from cabinbench.metrics import METRICS, TEAM_METRICS
 from cabinbench.records import (
     RECORD_FIELDS,

@@ -13,9 +13,9 @@ from urllib.parse import unquote, urlsplit
 
 import pytest
 
-from cabinbench import leaderboard, run
-from cabinbench.leaderboard_site import Entry, board_columns, build_site, suite_columns
-from cabinbench.leaderboard_table import group_rows, summarize_row
+from cabinbench.commands import leaderboard, run
+from cabinbench.leaderboard.site import Entry, board_columns, build_site, suite_columns
+from cabinbench.leaderboard.table import group_rows, summarize_row
 from cabinbench.records import read_records
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -8,9 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from cabinbench import leaderboard, run, submissions
-from cabinbench.submissions import SubmissionError, checksum
-from cabinbench.suites import get_suite
+from cabinbench.commands import leaderboard, run
+from cabinbench.layouts.suites import get_suite
+from cabinbench.leaderboard import submissions
+from cabinbench.leaderboard.submissions import SubmissionError, checksum
 
 from .plugin import install_spinner
 

@@ -12,14 +12,17 @@ import numpy as np
 import pytest
 
 import cabinbench
-from cabinbench import complexity, load_layout, suites
-from cabinbench.layout import LayoutError, geometry_hash, parse_layout
-from cabinbench.layout_family import families_dir, generate, load_family
+from cabinbench import load_layout
+from cabinbench.commands import complexity, suites
+from cabinbench.commands.run import main as run_main
+from cabinbench.errors import LayoutError
+from cabinbench.layouts.family import families_dir, generate, load_family
+from cabinbench.layouts.load import parse_layout
+from cabinbench.layouts.model import geometry_hash
+from cabinbench.layouts.suites import available_suites, get_suite, shared_layouts, verify
 from cabinbench.records import read_records
-from cabinbench.run import main as run_main
+from cabinbench.sim.world import random_start_poses, start_cell_spots
 from cabinbench.stats import stratified_bootstrap
-from cabinbench.suites import available_suites, get_suite, shared_layouts, verify
-from cabinbench.world import random_start_poses, start_cell_spots
 
 GENERATED = [name for name, suite in available_suites().items() if suite.family]
 # a spread sample of every generated suite, as the env tests loop over registered ids
@@ -74,7 +77,7 @@ def test_every_sampled_suite_layout_is_what_the_manifest_says(name):
 def test_generation_is_the_same_in_another_process():
     indices = [0, 7, 123456]
     code = (
-        "from cabinbench.layout_family import generate\n"
+        "from cabinbench.layouts.family import generate\n"
         f"print(' '.join(generate('cabin_v1', i).content_hash for i in {indices}))"
     )
     other = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

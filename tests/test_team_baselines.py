@@ -4,12 +4,12 @@ team, and a team too large for the layout is refused with a clear message."""
 
 import numpy as np
 import pytest
+from cabinbench.baselines.boustrophedon import cell_region, reachable, team_plans, team_split
 
 import cabinbench
-from cabinbench.baselines.boustrophedon import cell_region, reachable, team_plans, team_split
+from cabinbench.commands.run import main as run_main
 from cabinbench.episodes import run_episode
-from cabinbench.layout import load_layout
-from cabinbench.run import main as run_main
+from cabinbench.layouts.resolve import load_layout
 
 
 @pytest.mark.parametrize("protocol", ["sequential", "open"])

@@ -20,8 +20,8 @@ from pettingzoo.test import (
 
 import cabinbench
 from cabinbench.envs.team_env import TeamCoverageEnv
-from cabinbench.layout import parse_layout
-from cabinbench.render import ROBOT_COLOURS
+from cabinbench.layouts.load import parse_layout
+from cabinbench.sim.render import ROBOT_COLOURS
 
 SMALL = {"layout": "a320_cell", "n_agents": 2}
 ROBOT_TAG = 5  # offset of the ``robot`` one-hot entry inside a ray's block of 6

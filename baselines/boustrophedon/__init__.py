@@ -22,14 +22,14 @@ The modules, in the order a plan is made:
   demonstrations for GAIL.
 """
 
-from .baseline import Boustrophedon
-from .convoy import plan_team, team_plans
-from .demonstrations import record_demonstrations
-from .legs import Leg, plan_region
-from .plan import plan_layout
-from .regions import cell_region, reachable
-from .shares import TeamSplit, TeamStage, team_split
-from .work_units import team_share, work_units
+from cabinbench.baselines.boustrophedon.baseline import Boustrophedon
+from cabinbench.baselines.boustrophedon.convoy import plan_team, team_plans
+from cabinbench.baselines.boustrophedon.demonstrations import record_demonstrations
+from cabinbench.baselines.boustrophedon.legs import Leg, plan_region
+from cabinbench.baselines.boustrophedon.plan import plan_layout
+from cabinbench.baselines.boustrophedon.regions import cell_region, reachable
+from cabinbench.baselines.boustrophedon.shares import TeamSplit, TeamStage, team_split
+from cabinbench.baselines.boustrophedon.work_units import team_share, work_units
 
 __all__ = [
     "Boustrophedon",

@@ -18,15 +18,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from cabinbench.baselines.boustrophedon.legs import Leg
+from cabinbench.baselines.boustrophedon.plan import plan_layout
+from cabinbench.baselines.path_following import PathFollower
 
 from cabinbench.agents import Baseline, EpisodeContext
-from cabinbench.lidar import LidarConfig
-from cabinbench.observation import LIDAR_CHANNELS, lidar_rays
-from cabinbench.world import TIME_STEP
-
-from ..path_following import PathFollower
-from .legs import Leg
-from .plan import plan_layout
+from cabinbench.sim.lidar import LidarConfig
+from cabinbench.sim.observation import LIDAR_CHANNELS, lidar_rays
+from cabinbench.sim.physics import TIME_STEP
 
 FOLLOW_GAP = 0.12  # metres: stop driving forward when another robot is this close in front
 ON_WAYPOINT = 0.05  # metres: a leg whose first waypoint is this close starts at its second

@@ -26,21 +26,15 @@ import math
 from collections import OrderedDict
 
 import numpy as np
-from scipy import ndimage
-
-from cabinbench.geometry import (
-    arc_lengths,
-    drop_repeated_points,
-    nearest_point,
-    offsets_from_segments,
-    segment_samples,
+from cabinbench.baselines.boustrophedon.legs import (
+    MIN_SWEEP_COMPONENT_PX,
+    SAMPLE_SPACING,
+    Leg,
+    first_touches,
+    held_back_goal,
+    plan_region,
 )
-from cabinbench.layout import RESOLUTION, Layout
-from cabinbench.world import start_poses
-
-from ..coverage_planning import driving_time
-from .legs import MIN_SWEEP_COMPONENT_PX, SAMPLE_SPACING, Leg, first_touches, held_back_goal, plan_region
-from .regions import (
+from cabinbench.baselines.boustrophedon.regions import (
     cell_region,
     geodesic_map,
     near_bounds,
@@ -51,7 +45,26 @@ from .regions import (
     reachable,
     transit,
 )
-from .shares import DEPARTURE_GAP, TeamSplit, TeamStage, cached_for_team, team_split
+from cabinbench.baselines.boustrophedon.shares import (
+    DEPARTURE_GAP,
+    TeamSplit,
+    TeamStage,
+    cached_for_team,
+    team_split,
+)
+from cabinbench.baselines.coverage_planning import driving_time
+from scipy import ndimage
+
+from cabinbench.geometry import (
+    arc_lengths,
+    drop_repeated_points,
+    nearest_point,
+    offsets_from_segments,
+    segment_samples,
+)
+from cabinbench.layouts.fields import RESOLUTION
+from cabinbench.layouts.model import Layout
+from cabinbench.sim.world import start_poses
 
 GOAL_TOUCH_MARGIN = 0.03  # metres inside the reach at which a sweep counts as touching a goal
 STAGING_GAP = 0.06  # metres between a staged robot and one passing along the through way

@@ -11,10 +11,9 @@ from __future__ import annotations
 import json
 
 import numpy as np
+from cabinbench.baselines.boustrophedon.baseline import Boustrophedon
 
 from cabinbench.agents import EpisodeContext
-
-from .baseline import Boustrophedon
 
 
 def record_demonstrations(
@@ -42,7 +41,7 @@ def record_demonstrations(
     in every episode."""
     from cabinbench.envs.coverage_env import observation_config
     from cabinbench.episodes import make_env
-    from cabinbench.layout import load_layout
+    from cabinbench.layouts.resolve import load_layout
 
     protocol = env_kwargs.pop("protocol", "sequential")
     env = make_env(load_layout(layout), protocol, n_agents, env_kwargs)

@@ -10,12 +10,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from cabinbench.baselines.boustrophedon.regions import near_points
+from cabinbench.baselines.coverage_planning import Plan, plan_coverage
 
 from cabinbench.geometry import arc_lengths, segment_samples, world_to_pixel
-from cabinbench.layout import RESOLUTION, Layout
-
-from ..coverage_planning import Plan, plan_coverage
-from .regions import near_points
+from cabinbench.layouts.fields import RESOLUTION
+from cabinbench.layouts.model import Layout
 
 MIN_SWEEP_COMPONENT_PX = 4  # smaller scraps of a share are left to the neighbouring sweeps
 SAMPLE_SPACING = 0.02  # metres between the points at which a path is checked against goals or ways

@@ -11,14 +11,13 @@ cell. In the last cell the goal the sweep would reach last is held back until th
 from __future__ import annotations
 
 import numpy as np
+from cabinbench.baselines.boustrophedon.convoy import plan_team
+from cabinbench.baselines.boustrophedon.legs import Leg, held_back_goal, plan_region
+from cabinbench.baselines.boustrophedon.regions import cell_region, near_bounds, transit
 
 from cabinbench.geometry import nearest_point
-from cabinbench.layout import Layout
-from cabinbench.world import start_poses
-
-from .convoy import plan_team
-from .legs import Leg, held_back_goal, plan_region
-from .regions import cell_region, near_bounds, transit
+from cabinbench.layouts.model import Layout
+from cabinbench.sim.world import start_poses
 
 
 def plan_layout(
@@ -26,7 +25,7 @@ def plan_layout(
 ) -> list[Leg]:
     """The whole plan for robot ``agent`` of a team of ``n_agents``, as legs in driving order. A
     lone robot plans from ``start`` (x, y), the pose it finds (default: the layout's start); a
-    team from the team's start poses (:func:`~cabinbench.world.start_poses`)."""
+    team from the team's start poses (:func:`~cabinbench.sim.world.start_poses`)."""
     if n_agents > 1:
         return plan_team(layout, protocol, agent, n_agents)
     start = start_poses(layout, 1)[0, :2] if start is None else np.asarray(start, dtype=float)[:2]

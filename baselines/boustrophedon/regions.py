@@ -10,13 +10,13 @@ world (x, y) metres; ``transit`` is an A* path between two points through a mask
 from __future__ import annotations
 
 import numpy as np
+from cabinbench.baselines.coverage_planning import FreeSpace
 from scipy import ndimage
 from scipy.sparse.csgraph import dijkstra
 
 from cabinbench.geometry import pixels_to_world, world_to_pixel
-from cabinbench.layout import RESOLUTION, Layout
-
-from ..coverage_planning import FreeSpace
+from cabinbench.layouts.fields import RESOLUTION
+from cabinbench.layouts.model import Layout
 
 BOUND_MARGIN = 0.03  # metres kept between the robot's disc and a closed bound
 

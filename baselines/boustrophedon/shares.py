@@ -21,7 +21,7 @@ head-on, and they move in a fixed *convoy*:
   where one robot can sweep it with nobody else about: behind everyone for the last robot to
   set off in the first stage, beyond everyone for the leader in a dead end.
 - **Convoy order.** Ranks are fixed for the episode: in the first stage they are assigned from
-  the start poses (:func:`cabinbench.world.start_poses`) by minimising the summed squared travel,
+  the start poses (:func:`cabinbench.sim.world.start_poses`) by minimising the summed squared travel,
   which gives the farthest share to the robot nearest the way out.
 """
 
@@ -33,16 +33,8 @@ from dataclasses import dataclass, field
 from typing import TypeVar
 
 import numpy as np
-from scipy import ndimage
-from scipy.optimize import linear_sum_assignment
-
-from cabinbench.geometry import nearest_point
-from cabinbench.layout import RESOLUTION, Layout
-from cabinbench.world import start_poses
-
-from ..coverage_planning import FreeSpace
-from .legs import MIN_SWEEP_COMPONENT_PX, plan_region
-from .regions import (
+from cabinbench.baselines.boustrophedon.legs import MIN_SWEEP_COMPONENT_PX, plan_region
+from cabinbench.baselines.boustrophedon.regions import (
     arc_position,
     cell_region,
     geodesic_from,
@@ -52,7 +44,15 @@ from .regions import (
     pixel_centre,
     reachable,
 )
-from .work_units import work_units
+from cabinbench.baselines.boustrophedon.work_units import work_units
+from cabinbench.baselines.coverage_planning import FreeSpace
+from scipy import ndimage
+from scipy.optimize import linear_sum_assignment
+
+from cabinbench.geometry import nearest_point
+from cabinbench.layouts.fields import RESOLUTION
+from cabinbench.layouts.model import Layout
+from cabinbench.sim.world import start_poses
 
 DEPARTURE_GAP = 2.0  # seconds between robots setting off, in convoy (rank) order
 

@@ -15,14 +15,13 @@ Without goal markers the region is cut into strips across x instead (``team_shar
 from __future__ import annotations
 
 import numpy as np
+from cabinbench.baselines.boustrophedon.regions import arc_position, mask_points, nearest_pixel
+from cabinbench.baselines.coverage_planning import FreeSpace
 from scipy import ndimage
 from scipy.sparse.csgraph import dijkstra
 
 from cabinbench.geometry import offsets_from_segments
-from cabinbench.layout import Layout
-
-from ..coverage_planning import FreeSpace
-from .regions import arc_position, mask_points, nearest_pixel
+from cabinbench.layouts.model import Layout
 
 MERGE_BOUNDARY_PX = 3  # units meeting along this many pixels or more are merged
 OPEN_UNIT_PX = 3  # a unit this many pixels from its edge at its widest is open floor (it may be halved)

@@ -34,13 +34,19 @@ zigzag and shortcut is checked against the raster (``segment_is_free``). A pixel
 covered when its centre lies within the tool radius of the path.
 """
 
-from .decomposition import Cell, decompose, line_view, transpose_cell
-from .free_space import FreeSpace, astar, segment_is_free
-from .path import driving_time, drop_idle_corners, join, path_coverage, segment_footprint
-from .plan import MIN_PLAN_COVERAGE, Plan, plan_coverage
-from .route import route
-from .swaths import attachment_points, is_narrow, lane_lines, swaths
-from .units import Sweep, SweepOptions, cell_units
+from cabinbench.baselines.coverage_planning.decomposition import Cell, decompose, line_view, transpose_cell
+from cabinbench.baselines.coverage_planning.free_space import FreeSpace, astar, segment_is_free
+from cabinbench.baselines.coverage_planning.path import (
+    driving_time,
+    drop_idle_corners,
+    join,
+    path_coverage,
+    segment_footprint,
+)
+from cabinbench.baselines.coverage_planning.plan import MIN_PLAN_COVERAGE, Plan, plan_coverage
+from cabinbench.baselines.coverage_planning.route import route
+from cabinbench.baselines.coverage_planning.swaths import attachment_points, is_narrow, lane_lines, swaths
+from cabinbench.baselines.coverage_planning.units import Sweep, SweepOptions, cell_units
 
 __all__ = [
     "MIN_PLAN_COVERAGE",

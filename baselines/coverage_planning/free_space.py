@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit
 from scipy import sparse
 
-from cabinbench.cli import UsageError
+from cabinbench.errors import UsageError
 
 SQRT2 = math.sqrt(2.0)
 

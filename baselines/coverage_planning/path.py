@@ -10,11 +10,10 @@ the robot takes to drive a path in metres.
 from __future__ import annotations
 
 import numpy as np
+from cabinbench.baselines.coverage_planning.free_space import FreeSpace, _segment_is_free
 from numba import njit
 
 from cabinbench.geometry import drop_redundant_points, polyline_length, wrap_angle
-
-from .free_space import FreeSpace, _segment_is_free
 
 # A corner is only cut out when the shortcut covers what the corner alone covered with this much
 # to spare (metres), so that a robot tracking the path a centimetre off still covers it.

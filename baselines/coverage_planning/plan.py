@@ -13,17 +13,22 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
+from cabinbench.baselines.coverage_planning.decomposition import Cell, decompose
+from cabinbench.baselines.coverage_planning.free_space import FreeSpace
+from cabinbench.baselines.coverage_planning.path import (
+    SHORTCUT_MARGIN_M,
+    driving_time,
+    drop_idle_corners,
+    join,
+    path_coverage,
+)
+from cabinbench.baselines.coverage_planning.route import ROUTING_SEARCH_RADIUS_M, route
+from cabinbench.baselines.coverage_planning.swaths import max_lane_spacing_px
+from cabinbench.baselines.coverage_planning.units import DEFAULT_SWEEP_OPTIONS, SweepOptions, cell_units
 from scipy import ndimage
 from tqdm import tqdm
 
 from cabinbench.geometry import drop_repeated_points, pixels_to_world, polyline_length, world_to_pixel
-
-from .decomposition import Cell, decompose
-from .free_space import FreeSpace
-from .path import SHORTCUT_MARGIN_M, driving_time, drop_idle_corners, join, path_coverage
-from .route import ROUTING_SEARCH_RADIUS_M, route
-from .swaths import max_lane_spacing_px
-from .units import DEFAULT_SWEEP_OPTIONS, SweepOptions, cell_units
 
 # Plans should cover at least this fraction of the coverable area: the benchmark's success
 # threshold (0.98) plus a margin for tracking errors and for what the protocol leaves out.

@@ -15,11 +15,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from cabinbench.baselines.coverage_planning.decomposition import Cell, free_intervals, line_view
+from cabinbench.baselines.coverage_planning.free_space import segment_is_free
 
 from cabinbench.geometry import drop_redundant_points
-
-from .decomposition import Cell, free_intervals, line_view
-from .free_space import segment_is_free
 
 
 def max_lane_spacing_px(tool_width: float, resolution: float) -> int:

@@ -15,12 +15,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-from cabinbench.geometry import drop_redundant_points, polyline_length
-
-from .decomposition import Cell, line_view, transpose_cell
-from .free_space import segment_is_free
-from .swaths import (
+from cabinbench.baselines.coverage_planning.decomposition import Cell, line_view, transpose_cell
+from cabinbench.baselines.coverage_planning.free_space import segment_is_free
+from cabinbench.baselines.coverage_planning.swaths import (
     attachment_points,
     boundary_walk,
     corridor_zigzag,
@@ -29,6 +26,8 @@ from .swaths import (
     lane_blocks,
     swaths,
 )
+
+from cabinbench.geometry import drop_redundant_points, polyline_length
 
 # Douglas-Peucker tolerance (pixels) for boundary-following polylines. Slightly above
 # sqrt(2)/2 so that a 45-degree staircase of single-pixel steps becomes one diagonal segment,

@@ -29,13 +29,12 @@ from concurrent.futures import ThreadPoolExecutor
 import torch
 import torch.nn as nn
 import torch.nn.functional as F
+from cabinbench.baselines.ppo_gail.demonstrations import load_demonstrations
 from rsl_rl.algorithms import PPO
 from rsl_rl.models import MLPModel
 from rsl_rl.modules import MLP
 from rsl_rl.storage import RolloutStorage
 from tensordict import TensorDict
-
-from cabinbench.baselines.ppo_gail.demonstrations import load_demonstrations
 
 # ----------------------------------------------------------------------------------------------------
 # Configuration

@@ -68,9 +68,11 @@ import shutil
 import sys
 from pathlib import Path
 
-from cabinbench.cli import ArgumentParser, UsageError, output_folder
-from cabinbench.executors import EXECUTOR_NAMES, JobFailure, executors
-from cabinbench.rewards import REWARD_PRESETS
+from cabinbench.cli import ArgumentParser, output_folder
+from cabinbench.errors import UsageError
+from cabinbench.executors import EXECUTOR_NAMES, executors
+from cabinbench.executors.base import JobFailure
+from cabinbench.sim.rewards import REWARD_PRESETS
 
 EXIT_USAGE, EXIT_INTERRUPTED = 2, 130
 ABLATION_NAMES = ("ppo_gail", "ppo", "ppo_icm", "ppo_gail_only")  # = ...ppo_gail.algorithm.ABLATIONS
@@ -343,7 +345,9 @@ def train_one(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
     from cabinbench.baselines.ppo_gail.training import export_latest, train
-    from cabinbench.layout import LayoutError, load_layout
+
+    from cabinbench.errors import LayoutError
+    from cabinbench.layouts.resolve import load_layout
 
     try:
         if args.suite and (args.layouts or args.baseline not in ABLATION_NAMES):

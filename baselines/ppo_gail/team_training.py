@@ -34,7 +34,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import torch
-
 from cabinbench.baselines.ppo_gail.training import TrainConfig
 
 TEAM_POLICY = "ppo_gail_team"

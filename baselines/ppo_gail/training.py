@@ -63,9 +63,9 @@ os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl's logger imports 
 
 import numpy as np
 import torch
-
 from cabinbench.baselines.ppo_gail.algorithm import ABLATIONS, REWARD_SIGNALS, make_train_cfg
 from cabinbench.baselines.ppo_gail.policy import atomic_torch_save
+
 from cabinbench.training_records import best_checkpoint, plot_curves, read_metrics
 
 # ----------------------------------------------------------------------------------------------------
@@ -183,7 +183,7 @@ class TrainConfig:
         if self.ablation not in ABLATIONS:
             raise ValueError(f"unknown ablation {self.ablation!r}; choose one of {', '.join(ABLATIONS)}")
         if self.suite:
-            from cabinbench.suites import get_suite
+            from cabinbench.layouts.suites import get_suite
 
             size = len(get_suite(self.suite))  # an unknown suite: a LayoutError naming the valid ones
             if self.layouts:
@@ -281,7 +281,7 @@ class TrainConfig:
 
     @property
     def suite_version(self) -> int | None:
-        from cabinbench.suites import get_suite
+        from cabinbench.layouts.suites import get_suite
 
         return get_suite(self.suite).version if self.suite else None
 
@@ -337,7 +337,7 @@ CELL_LAYOUTS = ("a320_cell", "a320_tracking_cell")
 
 def suite_sample(suite: str, count: int, seed: int) -> list[str]:
     """``count`` different layouts of ``suite``, drawn by ``seed``, in suite order."""
-    from cabinbench.suites import get_suite
+    from cabinbench.layouts.suites import get_suite
 
     names = get_suite(suite).layout_names
     return [
@@ -877,7 +877,7 @@ def validate_checkpoints(runner, config: TrainConfig, run_dir: Path, export) -> 
     ``validation.csv`` as soon as they are measured: a resumed run validates only the checkpoints not done
     yet."""
     from cabinbench.episodes import run_episode
-    from cabinbench.layout import load_layout
+    from cabinbench.layouts.resolve import load_layout
 
     path = run_dir / VALIDATION_FILE
     rows = read_metrics(path) if path.exists() else []

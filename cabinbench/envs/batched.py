@@ -21,9 +21,9 @@ from gymnasium.utils import seeding
 from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
-from ..world import TIME_STEP
-from .coverage_env import CoverageEnv, checked_action, checked_count
-from .suite_env import SuiteEnv
+from cabinbench.envs.coverage_env import CoverageEnv, checked_action, checked_count
+from cabinbench.envs.suite_env import SuiteEnv
+from cabinbench.sim.physics import TIME_STEP
 
 _CONTEXT = multiprocessing.get_context("spawn")  # no fork of torch's threads
 SPIN_SECONDS = 0.002
@@ -226,7 +226,7 @@ class BatchedCoverageEnv:
     Call :meth:`close` (or use ``with``) to stop the workers.
 
     ``observation_layout`` maps each part of an observation row to its slice, as the single env's
-    (:mod:`cabinbench.observation`)."""
+    (:mod:`cabinbench.sim.observation`)."""
 
     def __init__(
         self,

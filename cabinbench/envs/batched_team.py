@@ -17,7 +17,7 @@ reset from its own generator (no new seed), so a batch replays exactly from its 
 ## Observation Space
 
 ``observations``: ``[num_envs * K, D]`` float32, each row that robot's own observation, exactly the
-team env's (and the single-robot env's) layout (:mod:`cabinbench.observation`): its lidar, the
+team env's (and the single-robot env's) layout (:mod:`cabinbench.sim.observation`): its lidar, the
 team's uncleaned floor around it (``coverage_patch``) and its velocity. **What a robot sees of
 the others**: only what its lidar returns. A ray that hits another robot carries the ``robot``
 tag (and its distance); the patch shows the floor the others have cleaned as clean. It never sees
@@ -32,7 +32,7 @@ values. The policy never sees it.
 ## Rewards
 
 ``[num_envs * K]``: each robot's own reward from the team env's preset, for teams
-(:mod:`cabinbench.rewards`). With ``coverage`` (the trainer's default): 10 × (the robot's newly
+(:mod:`cabinbench.sim.rewards`). With ``coverage`` (the trainer's default): 10 × (the robot's newly
 covered fraction of the coverable area + ``team_weight`` × the team's newly covered fraction), -0.1
 per contact with an obstacle *or another robot*, -1 per bound contact, -0.005 per step, +1 to every
 robot when the team clears a cell, +0.5 per exit it reaches. The shared terms (team coverage, cells)
@@ -46,7 +46,7 @@ The env is then reset and its rows hold the new episode's first observations.
 
 ## Arguments
 
-``layout`` (a name, path or :class:`~cabinbench.layout.Layout`, or a list of them), ``num_envs``
+``layout`` (a name, path or :class:`~cabinbench.layouts.model.Layout`, or a list of them), ``num_envs``
 (team envs), ``n_agents`` (K), ``seed``, ``max_steps``, and the team env's keyword arguments
 (``protocol``, ``reward``, lidar and patch settings, ``team_weight``, ``random_start``).
 """
@@ -57,9 +57,9 @@ import numpy as np
 import torch
 from tensordict import TensorDict
 
-from .batched import EpisodeLog, RslRlVecEnv
-from .coverage_env import checked_action, checked_count, observation_config
-from .team_env import TeamCoverageEnv
+from cabinbench.envs.batched import EpisodeLog, RslRlVecEnv
+from cabinbench.envs.coverage_env import checked_action, checked_count, observation_config
+from cabinbench.envs.team_env import TeamCoverageEnv
 
 
 class BatchedTeamEnv:

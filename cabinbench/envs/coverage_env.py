@@ -21,7 +21,7 @@ Out-of-range values are clipped to [-1, 1]. An action of another shape (``(4,)``
 ## Observation Space
 
 ``Box(float32, (6 * n_rays + coverage_patch² + 2,))``; ``env.unwrapped.observation_layout`` maps
-each part to its slice (:mod:`cabinbench.observation`; read observations through it). With R =
+each part to its slice (:mod:`cabinbench.sim.observation`; read observations through it). With R =
 ``n_rays`` and P = ``coverage_patch`` (P = 0: no patch part):
 
 | Index            | Part               | Observation                                       | Min | Max |
@@ -34,12 +34,12 @@ each part to its slice (:mod:`cabinbench.observation`; read observations through
 
 The lidar part is ray-major, its 6 channels per ray (distance, then the tags ``obstacle, bound,
 goal, exit, robot``) named by
-:data:`cabinbench.observation.LIDAR_CHANNELS` (read one with
-:func:`~cabinbench.observation.lidar_channel`); the design's ``lidar_distance`` and ``lidar_tags``
+:data:`cabinbench.sim.observation.LIDAR_CHANNELS` (read one with
+:func:`~cabinbench.sim.observation.lidar_channel`); the design's ``lidar_distance`` and ``lidar_tags``
 are not separate slices because the shipped policies were trained on this interleaved order. Rays
 spread evenly over ``field_of_view``, starting behind the robot and turning counter-clockwise.
 The coverage patch is an egocentric window of P × P cells of ``coverage_patch_cell`` metres,
-centred on the robot and turned with it (:class:`~cabinbench.coverage.CoveragePatch`; row-major,
+centred on the robot and turned with it (:class:`~cabinbench.sim.coverage.CoveragePatch`; row-major,
 rows from behind to ahead, columns from right to left; in ``sequential`` only the current cell's
 floor counts, and the next cell's once its passage is open; never that of cells the layout starts
 cleared). Bounds are seen only while closed, goal markers only while unreached (in
@@ -47,7 +47,7 @@ cleared). Bounds are seen only while closed, goal markers only while unreached (
 
 ## Rewards
 
-The preset named by ``reward`` (:mod:`cabinbench.rewards`): ``paper`` (seed Tables 4.4/4.5: +0.5
+The preset named by ``reward`` (:mod:`cabinbench.sim.rewards`): ``paper`` (seed Tables 4.4/4.5: +0.5
 per new goal marker, -0.3 per contact, -10 per bound contact, -0.01 per step, +2 for reaching an
 exit; on the step that clears a cell the reward is set to 3) or ``coverage`` (dense: +10 × the
 newly covered fraction of the coverable area, contact -0.1, bound -1, step -0.005, cell +1, exit
@@ -79,11 +79,11 @@ carries ``episode_record``, one value per metric of :mod:`cabinbench.metrics` (`
 ## Copies
 
 ``copy.deepcopy`` and pickle give an env that continues exactly as the original (the physics
-replays the episode's commands: :mod:`cabinbench.physics`).
+replays the episode's commands: :mod:`cabinbench.sim.physics`).
 
 ## Arguments
 
-``layout`` (registered name, YAML path or a :class:`~cabinbench.layout.Layout`), ``protocol``
+``layout`` (registered name, YAML path or a :class:`~cabinbench.layouts.model.Layout`), ``protocol``
 (``"sequential"`` or ``"open"``), ``reward`` (``"paper"`` or ``"coverage"``), ``n_rays``,
 ``lidar_range`` (m), ``field_of_view`` (rad), ``lidar_noise`` (m, Gaussian), ``coverage_patch``
 (cells per side, 0: none), ``coverage_patch_cell`` (m), ``max_steps``, ``terminate_on_bound``,
@@ -98,14 +98,15 @@ import math
 import gymnasium as gym
 import numpy as np
 
-from ..coverage import CoveragePatch
-from ..layout import Layout, load_layout
-from ..lidar import LidarConfig
-from ..metrics import EpisodeTracker
-from ..render import EnvRenderer
-from ..rewards import REWARD_PRESETS, reward
-from ..values import is_whole_number
-from ..world import World, random_start_poses, start_cell_spots
+from cabinbench.layouts.model import Layout
+from cabinbench.layouts.resolve import load_layout
+from cabinbench.metrics import EpisodeTracker
+from cabinbench.sim.coverage import CoveragePatch
+from cabinbench.sim.lidar import LidarConfig
+from cabinbench.sim.render import EnvRenderer
+from cabinbench.sim.rewards import REWARD_PRESETS, reward
+from cabinbench.sim.world import World, random_start_poses, start_cell_spots
+from cabinbench.values import is_whole_number
 
 OBSERVATION_SETTINGS = ("n_rays", "lidar_range", "field_of_view", "coverage_patch", "coverage_patch_cell")
 """The arguments (of this env and the team env) that shape the observation."""
@@ -186,7 +187,7 @@ class CoverageEnv(gym.Env):
         self.max_steps = max_steps or self.layout.max_steps
         self.render_mode = render_mode
         self.observation_space = observation_space(self.world.observation_size)
-        self.observation_layout = self.world.observation_layout  # part name -> slice (cabinbench.observation)
+        self.observation_layout = self.world.observation_layout  # part name -> slice
         self.observation_config = observation_config(
             {
                 "n_rays": n_rays,

@@ -43,9 +43,9 @@ from __future__ import annotations
 
 import gymnasium as gym
 
-from ..suites import get_suite
-from ..values import is_whole_number
-from .coverage_env import CoverageEnv
+from cabinbench.envs.coverage_env import CoverageEnv
+from cabinbench.layouts.suites import get_suite
+from cabinbench.values import is_whole_number
 
 
 class SuiteEnv(CoverageEnv):

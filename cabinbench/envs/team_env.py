@@ -29,7 +29,7 @@ R = ``n_rays``, P = ``coverage_patch``):
 
 The lidar part is ray-major (the shipped policies' order), so it is one slice, not the design's
 ``lidar_distance`` and ``lidar_tags``: see :mod:`cabinbench.envs.coverage_env` and
-:mod:`cabinbench.observation`.
+:mod:`cabinbench.sim.observation`.
 
 What a robot sees of the others: only what its lidar returns (a ray that hits a robot carries the
 ``robot`` tag and its distance) and, with a patch, the floor they cleaned shown as clean. Never
@@ -42,7 +42,7 @@ forward speed / ``max_speed`` and turn rate / ``max_turn_rate`` (clipped to [-1,
 team coverage, the fraction of cells cleared, current cell / number of cells, steps /
 ``max_cycles``, and one reached flag (0 or 1) per goal marker of the layout.
 
-**Reward** (per agent, :func:`cabinbench.rewards.reward` on that robot's events):
+**Reward** (per agent, :func:`cabinbench.sim.rewards.reward` on that robot's events):
 
 - ``paper`` (seed Tables 4.4/4.5, for teams): +0.5 per goal marker this robot reached, -0.3 per
   contact with an obstacle or another robot, -10 per bound contact, -0.01 per step, +2 for
@@ -74,7 +74,7 @@ value with ``torch.tensor`` into the spec it built from the reset's infos).
 
 **Copies**: ``copy.deepcopy`` and pickle give an env that continues exactly as the original.
 
-**Arguments**: ``layout`` (registered name, YAML path or a :class:`~cabinbench.layout.Layout`),
+**Arguments**: ``layout`` (registered name, YAML path or a :class:`~cabinbench.layouts.model.Layout`),
 ``n_agents`` (K), ``protocol`` (``"sequential"`` or ``"open"``), ``reward`` (``"paper"`` or
 ``"coverage"``), ``n_rays``, ``lidar_range`` (m), ``field_of_view`` (rad), ``lidar_noise`` (m,
 Gaussian; the only randomness, drawn from the reset seed), ``coverage_patch`` (cells per side, 0:
@@ -92,15 +92,16 @@ import numpy as np
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
-from ..coverage import CoveragePatch
-from ..layout import Layout, load_layout
-from ..lidar import LidarConfig
-from ..metrics import EpisodeTracker
-from ..render import EnvRenderer
-from ..rewards import REWARD_PRESETS, reward
-from ..values import is_real_number
-from ..world import World, random_start_poses, start_cell_spots
-from .coverage_env import checked_action, checked_count, checked_step_limit, observation_space
+from cabinbench.envs.coverage_env import checked_action, checked_count, checked_step_limit, observation_space
+from cabinbench.layouts.model import Layout
+from cabinbench.layouts.resolve import load_layout
+from cabinbench.metrics import EpisodeTracker
+from cabinbench.sim.coverage import CoveragePatch
+from cabinbench.sim.lidar import LidarConfig
+from cabinbench.sim.render import EnvRenderer
+from cabinbench.sim.rewards import REWARD_PRESETS, reward
+from cabinbench.sim.world import World, random_start_poses, start_cell_spots
+from cabinbench.values import is_real_number
 
 STATE_ENTRIES_PER_ROBOT = 6  # x, y, cos heading, sin heading, forward speed, turn rate
 TEAM_STATE_ENTRIES = 4  # coverage, cells cleared, current cell, elapsed steps

@@ -14,41 +14,13 @@ Executors are context managers: leaving one stops what it started.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass
-from typing import Any
-
-
-@dataclass(frozen=True)
-class JobFailure:
-    """A job whose process died before it finished (``message``: one line, what happened)."""
-
-    job: Any
-    message: str
-
-
-class Executor:
-    """Base class: runs ``function`` over ``jobs``; see the module docstring."""
-
-    name = ""
-
-    def map(self, function: Callable, jobs: Iterable) -> Iterator:
-        raise NotImplementedError
-
-    def close(self) -> None:
-        """Stop what the executor started (workers, a Ray instance); idempotent."""
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *_) -> None:
-        self.close()
+from cabinbench.executors.base import Executor
 
 
 def executors() -> dict[str, type[Executor]]:
     """The executors by name (``--executor``)."""
-    from .local import LocalExecutor
-    from .ray_tasks import RayExecutor
+    from cabinbench.executors.local import LocalExecutor
+    from cabinbench.executors.ray_tasks import RayExecutor
 
     return {executor.name: executor for executor in (LocalExecutor, RayExecutor)}
 

@@ -10,8 +10,8 @@ from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 
-from ..cli import EXIT_INTERRUPTED
-from . import Executor, JobFailure
+from cabinbench.errors import EXIT_INTERRUPTED
+from cabinbench.executors.base import Executor, JobFailure
 
 PARENT_POLL_SECONDS = 0.5  # how often a worker checks that the process that started it is still there
 

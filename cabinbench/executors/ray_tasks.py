@@ -17,8 +17,8 @@ import logging
 import socket
 from collections.abc import Callable, Iterable, Iterator
 
-from ..cli import UsageError
-from . import Executor, JobFailure
+from cabinbench.errors import UsageError
+from cabinbench.executors.base import Executor, JobFailure
 
 INSTALL = 'pip install "cabinbench[ray]"'
 SHIPPED_EXCLUDES = [".git", ".venv*", "__pycache__", "*.egg-info"]  # never needed by a worker

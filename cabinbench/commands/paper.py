@@ -1,0 +1,100 @@
+"""Build the benchmark paper: ``python -m cabinbench.paper [--results results] [--out paper/paper.md]``.
+
+Fills ``paper/template.md``'s placeholders from generated material only: ``{{layouts_table}}``
+from the built-in layout files (size, cells, areas, complexity; never a user's
+``CABINBENCH_LAYOUT_PATH``), ``{{leaderboard_table}}``, ``{{ablation_table}}`` and
+``{{uncovered_table}}`` from ``results/leaderboard.md``, ``ablation.md`` and ``uncovered.md``
+(generated from the run records by ``python -m cabinbench.leaderboard``), ``{{figures}}``
+from ``results/figures/``, and ``{{reproduction_table}}``, the study's claims against ours, from
+the layouts, the records in ``results/runs`` and the training configurations
+(:mod:`cabinbench.paper.reproduction`). Nothing in the paper's tables is typed by hand; the same inputs give a
+byte-identical paper. A missing input is a user error: one line, exit status 2.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from cabinbench.cli import ArgumentParser, output_file, user_errors
+from cabinbench.errors import UsageError
+from cabinbench.layouts.complexity import layout_summary
+from cabinbench.layouts.load import builtin_layout_dir
+from cabinbench.layouts.resolve import load_layout
+from cabinbench.paper.reproduction import reproduction_table
+from cabinbench.records import read_records, with_current_complexity
+
+
+def layouts_table() -> str:
+    lines = [
+        "| layout | kind | size (m) | cells | goals | free m² | coverable m² | complexity (total) "
+        "| complexity (normalized) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for path in sorted(builtin_layout_dir().glob("*.yaml")):
+        row = layout_summary(load_layout(path))
+        lines.append(
+            f"| `{row['name']}` | {row['kind']} | {row['size_m'][0]:.2f} × {row['size_m'][1]:.2f} | "
+            f"{row['cells']} | {row['goals']} | {row['free_area_m2']:.2f} | {row['coverable_area_m2']:.2f} | "
+            f"{row['complexity_total']:.4f} | {row['complexity_normalized']:.4f} |"
+        )
+    return "\n".join(lines)
+
+
+def generated_table(path: Path) -> str:
+    """A generated table file without its title (the paper has its own headings); a note if it is missing."""
+    if not path.is_file():
+        return f"(no `{path.name}` yet: run `python -m cabinbench.leaderboard`)"
+    text = path.read_text(encoding="utf-8")
+    return "\n".join(line for line in text.splitlines() if not line.startswith("# ")).strip()
+
+
+def figures(results: Path, paper_dir: Path) -> str:
+    entries = []
+    for path in sorted((results / "figures").glob("*.png")):
+        relative = Path(os.path.relpath(path, paper_dir)).as_posix()
+        entries.append(f"![{path.stem}]({relative})")
+    return "\n\n".join(entries) if entries else "(no figures yet)"
+
+
+def build(template: Path, results: Path, out: Path) -> str:
+    text = template.read_text(encoding="utf-8")
+    replacements = {
+        "{{layouts_table}}": layouts_table(),
+        "{{leaderboard_table}}": generated_table(results / "leaderboard.md"),
+        "{{ablation_table}}": generated_table(results / "ablation.md"),
+        "{{uncovered_table}}": generated_table(results / "uncovered.md"),
+        "{{figures}}": figures(results, out.parent),
+        "{{reproduction_table}}": reproduction_table(
+            with_current_complexity(read_records(results / "runs")), results
+        ),
+    }
+    for placeholder, value in replacements.items():
+        text = text.replace(placeholder, value)
+    return text
+
+
+@user_errors
+def main(argv: list[str] | None = None) -> int:
+    parser = ArgumentParser(
+        prog="python -m cabinbench.paper", description="Build paper/paper.md from the template and results/."
+    )
+    parser.add_argument("--template", default="paper/template.md")
+    parser.add_argument("--results", default="results")
+    # no string default: argparse would check it before an unknown option, and report the wrong mistake
+    parser.add_argument("--out", type=output_file(".md"), help="the paper to write (default: paper/paper.md)")
+    args = parser.parse_args(argv)
+    out = args.out or Path("paper/paper.md")
+    results, template = Path(args.results), Path(args.template)
+    if not (results / "leaderboard.md").is_file():
+        raise UsageError(
+            f"--results: {results / 'leaderboard.md'} is missing; "
+            "run `python -m cabinbench.leaderboard` first"
+        )
+    if not template.is_file():
+        raise UsageError(f"--template: no file {template}; give the paper's template (paper/template.md)")
+    if not out.parent.is_dir():
+        raise UsageError(f"--out: no folder {out.parent} for {out}; create it, or give --out FILE.md")
+    out.write_text(build(template, results, out), encoding="utf-8")
+    print(f"wrote {out}")
+    return 0

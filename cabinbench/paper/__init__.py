@@ -1,0 +1,2 @@
+"""The generated paper: the reproduction report beside ``python -m cabinbench.paper``
+(:mod:`cabinbench.commands.paper`)."""

@@ -1,0 +1,1 @@
+"""The built-in layouts, installed as the data package ``cabinbench.layouts.builtin``."""
