@@ -19,6 +19,7 @@ Intervals are 95 % percentile-bootstrap intervals over episodes (:mod:`cabinbenc
 
 from __future__ import annotations
 
+import importlib.util
 import json
 from collections.abc import Callable
 from pathlib import Path
@@ -37,7 +38,10 @@ from cabinbench.stats import mean_ci
 
 RANDOM = ("random_bounce", "random_bounce_study")
 # The study's pair keeps its records beside its checkpoints (read as files: the paper needs no torch).
-STUDY_CHECKPOINTS = Path(__file__).resolve().parent / "baselines" / "ppo_gail" / "checkpoints"
+# The shipped checkpoints, found without importing the learner (the core imports no baseline).
+STUDY_CHECKPOINTS = (
+    Path(importlib.util.find_spec("cabinbench.baselines.ppo_gail").origin).parent / "checkpoints"
+)
 STUDY_STAGES = ("cleaning", "tracking")
 STUDY_RANDOM_SECONDS = 60.0  # Fig. 5.12(e): the random robot's 3000 steps took "around 60s"
 LEARNERS = ("ppo_gail_study", "ppo_gail")  # the study's configuration, then our tuned variant
