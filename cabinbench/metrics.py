@@ -22,9 +22,20 @@ one record per episode. Definitions (areas are counted on the 0.05 m raster):
 - ``overlap``: Σ over covered pixels of (passes − 1) / covered pixels, a pass being one entry of
   the pixel into the footprint;
 - ``cells_cleared``: cells completed (all goal markers reached);
-- ``success``: the layout's success criterion was met within the step limit (sequential: all
-  cells cleared; open: coverage ≥ the layout's ``success_coverage``);
+- ``goals_reached``: the protocol's end was reached within the step limit (sequential: every
+  goal marker of every cell; open: coverage ≥ the layout's ``success_coverage``);
+- ``time_limit``: simulated seconds the episode was allowed (its step limit × the step);
+- ``clean_time``: simulated seconds until coverage first reached the layout's
+  ``success_coverage`` (None if never): the floor counts as cleaned from then on;
+- ``success``: the floor was cleaned within the limit (``clean_time`` is not None);
+- ``clean_score``: the headline score, :func:`clean_score`;
 - ``wall_time``: real seconds the episode took.
+
+Coverage at the time limit is ``coverage``: an episode that ends early (every goal marker
+reached, a bound touched) keeps its final coverage until the limit. The reach metrics of the
+learned-coverage literature are aggregates of ``t90`` and ``t99`` (``stats.reach_time``): G90 and
+G99, the share of episodes that reach 90 % and 99 %, and T90 and T99, the time to reach it among
+those that do.
 
 Where the uncovered floor lies (not an episode metric; the leaderboard's ``uncovered`` table):
 :func:`uncovered_by_clearance` splits ``1 - coverage`` into bands of distance from the nearest wall.
@@ -47,8 +58,9 @@ from cabinbench.sim.physics import TIME_STEP
 from cabinbench.sim.world import World
 
 COVERAGE_THRESHOLDS = (0.90, 0.95, 0.99)
-REACH_TIMES = tuple(f"t{round(threshold * 100)}" for threshold in COVERAGE_THRESHOLDS)
-"""The metrics of the time to reach each threshold (t90, t95, t99): None in an episode that never does."""
+REACH_TIMES = (*(f"t{round(threshold * 100)}" for threshold in COVERAGE_THRESHOLDS), "clean_time")
+"""The metrics of the time to reach a coverage level (t90, t95, t99, and the layout's own level,
+clean_time): None in an episode that never does."""
 METRICS = (
     "coverage",
     "coverage_free",
@@ -64,7 +76,11 @@ METRICS = (
     "rotation",
     "overlap",
     "cells_cleared",
+    "goals_reached",
+    "time_limit",
+    "clean_time",
     "success",
+    "clean_score",
     "wall_time",
 )
 TEAM_METRICS = ("n_agents", "robot_collisions", "path_lengths", "makespan", "load_balance")
@@ -99,11 +115,29 @@ def uncovered_by_clearance(
     return np.bincount(band[uncovered], minlength=len(bands)) / band.size
 
 
-class EpisodeTracker:
-    """Accumulates one episode's metrics from the world's step events."""
+def clean_score(coverage: float, clean_time: float | None, time_limit: float, level: float) -> float:
+    """The headline score of one episode, in [0, 1]: half for cleaning the floor, half for speed.
 
-    def __init__(self, world: World):
+    An episode that cleaned the floor (coverage reached ``level`` at ``clean_time``) scores
+    ``1 - clean_time / (2 time_limit)``, in [0.5, 1); one that did not scores
+    ``coverage / (2 level)``, in [0, 0.5), with its coverage at the time limit. So an episode that
+    leaves floor dirty, however early it stops, ranks below every episode that cleans it; among
+    cleaned ones the faster ranks higher; among the others the one that covered more. The two
+    halves meet at 0.5: cleaning at the last step scores what reaching ``level`` would.
+    """
+    if clean_time is not None:
+        return 1.0 - clean_time / (2.0 * time_limit)
+    return min(coverage, level) / (2.0 * level)
+
+
+class EpisodeTracker:
+    """Accumulates one episode's metrics from the world's step events; ``max_steps`` is the
+    episode's step limit."""
+
+    def __init__(self, world: World, max_steps: int):
         self.world = world
+        self.time_limit = max_steps * TIME_STEP
+        self.clean_time: float | None = None
         self.started = clock.perf_counter()
         self.steps = 0
         n = world.n_robots
@@ -136,6 +170,8 @@ class EpisodeTracker:
 
     def _note_thresholds(self) -> None:
         coverage = self.world.coverage
+        if self.clean_time is None and coverage >= self.world.layout.success_coverage:
+            self.clean_time = self.steps * TIME_STEP
         while self._unreached_thresholds and coverage >= self._unreached_thresholds[0]:
             self.threshold_times[self._unreached_thresholds.pop(0)] = self.steps * TIME_STEP
 
@@ -180,7 +216,13 @@ class EpisodeTracker:
             "rotation": self.rotation,
             "overlap": overlap(world.pass_count),
             "cells_cleared": world.cells_cleared,
-            "success": bool(world.success),
+            "goals_reached": bool(world.success),
+            "time_limit": self.time_limit,
+            "clean_time": self.clean_time,
+            "success": self.clean_time is not None,
+            "clean_score": clean_score(
+                world.coverage, self.clean_time, self.time_limit, world.layout.success_coverage
+            ),
             "wall_time": clock.perf_counter() - self.started,
         }
         if world.n_robots > 1:

@@ -33,6 +33,8 @@ float of every metric is not a coincidence worth planning for.
   over layouts.
 - :func:`spearman`: Spearman's rank correlation with a bootstrap interval over (x, y) pairs (from
   ten pairs on).
+- :func:`headline`: a method's headline score on a set of layouts (:mod:`cabinbench.headline`).
+- :func:`partial_spearman` and :func:`holm`: complexity as a predictor of difficulty, tested.
 """
 
 from __future__ import annotations
@@ -53,7 +55,7 @@ CONFIDENCE = 0.95
 RESAMPLES = 9_999
 BOOTSTRAP_SEED = 0
 MIN_CORRELATION_PAIRS = 10  # fewer pairs: a rank correlation without interval (see spearman)
-RATES = ("success",)  # booleans per episode: a rate with a Wilson interval
+RATES = ("success", "goals_reached")  # booleans per episode: a rate with a Wilson interval
 # what an episode's outcome is: every metric but the machine's wall-clock time
 OUTCOME = tuple(name for name in (*METRICS, *TEAM_METRICS) if name != "wall_time")
 
@@ -332,3 +334,72 @@ def spearman(x, y) -> Summary:
     with np.errstate(invalid="ignore", divide="ignore"):
         estimates = (ranks_x * ranks_y).sum(axis=1) / spread  # NaN where a resample is constant
     return Summary(rho, *_percentile_interval(estimates), n)
+
+
+def t_interval(values) -> Summary:
+    """Mean and 95% Student-t interval of a few independent units (training seeds): ``mean ± t(n - 1)
+    · sd / sqrt(n)``. Unlike a bootstrap it reaches beyond the observed values, as it must with three
+    seeds; one unit has no interval."""
+    sample = _numbers(values)
+    n = len(sample)
+    if n < 2:
+        return _without_interval(sample)
+    from scipy import stats
+
+    mean = float(sample.mean())
+    half = float(stats.t.ppf((1 + CONFIDENCE) / 2, n - 1) * sample.std(ddof=1) / math.sqrt(n))
+    return Summary(mean, mean - half, mean + half, n)
+
+
+def iqm_over_layouts(layout_scores) -> Summary:
+    """The IQM of per-layout scores with a percentile-bootstrap interval that resamples layouts
+    (``n``: layouts)."""
+    sample = _numbers(layout_scores)
+    n = len(sample)
+    if n < 2 or np.ptp(sample) == 0:
+        return Summary(iqm(sample), math.nan, math.nan, n) if n < 2 else Summary(*(3 * [iqm(sample)]), n)
+    from scipy import stats
+
+    draws = sample[np.random.default_rng(BOOTSTRAP_SEED).integers(0, n, (RESAMPLES, n))]
+    estimates = stats.trim_mean(draws, 0.25, axis=1)
+    return Summary(iqm(sample), *_percentile_interval(estimates), n)
+
+
+def partial_spearman(x, y, control) -> tuple[float, float]:
+    """Spearman's ρ of ``x`` and ``y`` with the ranks of ``control`` partialled out, and its
+    two-sided p-value (t with n - 3 degrees of freedom): the correlation of the residuals of the
+    ranks of x and of y, each regressed on the ranks of ``control``. NaN when a side is constant
+    or n < 4."""
+    from scipy import stats
+
+    x, y, control = (stats.rankdata(_numbers(values)) for values in (x, y, control))
+    n = len(x)
+    if n < 4 or min(np.ptp(x), np.ptp(y), np.ptp(control)) == 0:
+        return math.nan, math.nan
+    design = np.column_stack([np.ones(n), control])
+    residuals = [v - design @ np.linalg.lstsq(design, v, rcond=None)[0] for v in (x, y)]
+    if min(np.ptp(r) for r in residuals) < 1e-12:
+        return math.nan, math.nan
+    rho = float(np.corrcoef(*residuals)[0, 1])
+    t = rho * math.sqrt((n - 3) / max(1e-300, 1 - rho**2))
+    return rho, float(2 * stats.t.sf(abs(t), n - 3))
+
+
+def one_sided(rho: float, p_two_sided: float, expected_sign: int) -> float:
+    """The one-sided p-value of a correlation whose hypothesis names its sign (+1 or -1)."""
+    if math.isnan(rho) or math.isnan(p_two_sided):
+        return math.nan
+    return p_two_sided / 2 if rho * expected_sign > 0 else 1 - p_two_sided / 2
+
+
+def holm(p_values) -> np.ndarray:
+    """Holm's step-down adjusted p-values for a family of tests (NaN stays NaN, out of the family)."""
+    p = _numbers(p_values)
+    adjusted = np.full(len(p), math.nan)
+    tested = np.flatnonzero(~np.isnan(p))
+    order = tested[np.argsort(p[tested], kind="stable")]
+    running = 0.0
+    for rank, index in enumerate(order):
+        running = max(running, min(1.0, (len(order) - rank) * p[index]))
+        adjusted[index] = running
+    return adjusted

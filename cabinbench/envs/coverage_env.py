@@ -215,7 +215,7 @@ class CoverageEnv(gym.Env):
         if self.start_spots is not None:
             start = random_start_poses(self.layout, self.start_spots, 1, self.np_random)
         self.world.reset(self.np_random, start)
-        self.tracker = EpisodeTracker(self.world)
+        self.tracker = EpisodeTracker(self.world, self.max_steps)
         if self.render_mode == "human":
             self.render()
         return self.world.observe(0), self._info()

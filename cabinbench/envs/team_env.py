@@ -193,7 +193,7 @@ class TeamCoverageEnv(ParallelEnv):
         if self.start_spots is not None:
             start = random_start_poses(self.layout, self.start_spots, self.world.n_robots, self.np_random)
         self.world.reset(self.np_random, start)
-        self.tracker = EpisodeTracker(self.world)
+        self.tracker = EpisodeTracker(self.world, self.max_cycles)
         self.episode_record = None
         # The tracker sums contacts over the team; infos report them per robot.
         self._contacts = np.zeros((self.world.n_robots, 3), dtype=np.int64)  # obstacle, robot, bound

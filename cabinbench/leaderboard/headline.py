@@ -1,0 +1,202 @@
+"""The headline table: one row per method (per team size K), read on one screen.
+
+Each row shows what the method observes, its headline score (:func:`cabinbench.metrics.clean_score`)
+on ``cabin-v1-test`` and on ``cabin-v1-ood`` (the IQM over layouts, with its interval and n),
+``full_cabin`` coverage and time (makespan for teams), the share of test episodes that cleaned the
+floor, what training cost (env steps and wall-clock, from the training records) and how many
+training seeds stand behind the row.
+
+The interval depends on what varies (:mod:`cabinbench.stats`): a method with several training
+seeds gets a Student-t interval over the seeds' scores (n = seeds); one policy (a planner, or a
+single trained seed) a percentile bootstrap over layouts (n = layouts). Scores live in [0, 1], and
+intervals are clipped to it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from cabinbench.leaderboard.table import policy_of
+from cabinbench.stats import Summary, iqm_over_layouts, t_interval
+
+HEADLINE_SUITES = ("cabin-v1-test", "cabin-v1-ood")
+HEADLINE_LAYOUT = "full_cabin"
+OBSERVES = {
+    # what each built-in method sees while it acts (DESIGN, "Observation"); a submission's row shows "?"
+    "boustrophedon": "map, pose",
+    "random_bounce": "bumper",
+    "random_bounce_study": "bumper",
+    "ppo": "lidar, velocity, coverage patch",
+    "ppo_icm": "lidar, velocity, coverage patch",
+    "ppo_gail_only": "lidar, velocity, coverage patch",
+    "ppo_gail": "lidar, velocity, coverage patch",
+    "ppo_gail_suite": "lidar, velocity, coverage patch",
+    "ppo_gail_team": "lidar, velocity, coverage patch",
+    "ppo_gail_study": "lidar, velocity",
+}
+
+
+@dataclass(frozen=True)
+class TrainingCost:
+    """What training one method cost, over its recorded training runs (one per seed)."""
+
+    env_steps: float  # mean over runs
+    wall_clock_s: float  # mean over runs
+    runs: int
+
+
+def headline_score(episodes: pd.DataFrame) -> Summary:
+    """A method's headline score on one set of layouts: per policy (training seed), the IQM over
+    layouts of each layout's mean ``clean_score``; over several policies a t interval of those
+    (n = policies), over one a bootstrap over layouts (n = layouts)."""
+    per_layout = episodes.groupby(["policy", "layout"])["clean_score"].mean()
+    policies = per_layout.index.get_level_values("policy").unique()
+    if len(policies) == 1:
+        return _clipped(iqm_over_layouts(per_layout.to_numpy()))
+    return _clipped(t_interval([iqm_over_layouts(per_layout[policy]).mean for policy in policies]))
+
+
+def success_share(episodes: pd.DataFrame) -> Summary:
+    """The share of episodes that cleaned the floor: per policy the mean over layouts of each
+    layout's share; over several policies a t interval of those (n = policies), else a plain mean
+    with n = episodes (its interval is the Wilson one of the detailed tables)."""
+    per_layout = episodes.groupby(["policy", "layout"])["success"].mean()
+    per_policy = per_layout.groupby(level="policy").mean()
+    if len(per_policy) > 1:
+        return _clipped(t_interval(per_policy.to_numpy()))
+    return Summary(float(per_policy.iloc[0]), math.nan, math.nan, len(episodes))
+
+
+def _clipped(summary: Summary) -> Summary:
+    low, high = (
+        min(1.0, max(0.0, bound)) if not math.isnan(bound) else bound for bound in (summary.low, summary.high)
+    )
+    return Summary(summary.mean, low, high, summary.n)
+
+
+def training_cost(training: Path, baseline: str) -> TrainingCost | None:
+    """Env steps and wall-clock of a learned baseline's training runs: ``<training>/<baseline>/``
+    and its ``seed*/`` folders (``metrics.csv``'s last row), or, for a baseline shipped as stages
+    (``ppo_gail_study``), the stages' ``<checkpoints>/<baseline>_<stage>.training.json`` summed."""
+    runs = [training / baseline, *sorted((training / baseline).glob("seed*"))]
+    costs = []
+    for run in runs:
+        metrics = run / "metrics.csv"
+        if metrics.is_file():
+            last = pd.read_csv(metrics).iloc[-1]
+            costs.append((float(last["timesteps"]), float(last["train_time"])))
+    if not costs:
+        return None
+    steps, seconds = np.mean(costs, axis=0)
+    return TrainingCost(float(steps), float(seconds), len(costs))
+
+
+def staged_training_cost(checkpoints: Path, baseline: str) -> TrainingCost | None:
+    """The summed cost of a baseline trained in stages, one ``.training.json`` per stage."""
+    stages = sorted(checkpoints.glob(f"{baseline}_*.training.json"))
+    if not stages:
+        return None
+    records = [json.loads(path.read_text(encoding="utf-8")) for path in stages]
+    return TrainingCost(
+        float(sum(r["timesteps"] for r in records)), float(sum(r["train_time_s"] for r in records)), 1
+    )
+
+
+def headline_rows(records: pd.DataFrame, training: Path, checkpoints: Path) -> list[dict]:
+    """One row per (baseline, K) with records on a headline suite or layout, best test score first."""
+    records = records.assign(policy=records["baseline_config"].map(policy_of))
+    methods = records.loc[
+        records["suite"].isin(HEADLINE_SUITES) | (records["layout"] == HEADLINE_LAYOUT),
+        ["baseline", "n_agents"],
+    ].drop_duplicates()
+    rows = []
+    for baseline, n_agents in methods.itertuples(index=False):
+        method = records[(records["baseline"] == baseline) & (records["n_agents"] == n_agents)]
+        row = {"baseline": baseline, "n_agents": int(n_agents), "observes": OBSERVES.get(baseline, "?")}
+        for suite in HEADLINE_SUITES:
+            episodes = method[method["suite"] == suite]
+            row[suite] = headline_score(episodes) if len(episodes) else None
+            row[f"{suite} seeds"] = episodes["policy"].nunique()
+        test = method[method["suite"] == HEADLINE_SUITES[0]]
+        row["success"] = success_share(test) if len(test) else None
+        cabin = method[(method["layout"] == HEADLINE_LAYOUT) & method["suite"].isna()]
+        cabin = cabin[cabin["protocol"] == "sequential"]
+        row["full_cabin_coverage"] = float(cabin["coverage"].mean()) if len(cabin) else math.nan
+        time = cabin["makespan"] if n_agents > 1 and "makespan" in cabin else cabin["time"]
+        row["full_cabin_time"] = float(time.mean()) if len(cabin) else math.nan
+        row["cost"] = training_cost(training, baseline) or staged_training_cost(checkpoints, baseline)
+        row["seeds"] = max(row[f"{suite} seeds"] for suite in HEADLINE_SUITES)
+        rows.append(row)
+    return sorted(rows, key=_rank)
+
+
+def _rank(row: dict) -> tuple:
+    test = row[HEADLINE_SUITES[0]]
+    return (-(test.mean if test is not None else -1.0), row["baseline"], row["n_agents"])
+
+
+def _score_cell(summary: Summary | None) -> str:
+    if summary is None:
+        return "—"
+    if math.isnan(summary.low):
+        return f"{summary.mean:.3f} (n={summary.n})"
+    return f"{summary.mean:.3f} [{summary.low:.3f}, {summary.high:.3f}] (n={summary.n})"
+
+
+def _cost_cell(cost: TrainingCost | None) -> str:
+    if cost is None:
+        return "—"
+    return f"{cost.env_steps / 1e6:.2f} M, {cost.wall_clock_s / 3600:.2f} h"
+
+
+def headline_markdown(rows: list[dict]) -> str:
+    """The table and the sentences a reader needs to read it."""
+    header = (
+        "| method | K | observes | score, cabin-v1-test | score, cabin-v1-ood | full_cabin coverage | "
+        "full_cabin time (s) | cleaned, test | training (env steps, wall-clock) | seeds |"
+    )
+    lines = [header, "|" + "---|" * 10]
+    for row in rows:
+        cells = [
+            f"`{row['baseline']}`",
+            str(row["n_agents"]),
+            row["observes"],
+            *(_score_cell(row[suite]) for suite in HEADLINE_SUITES),
+            _number(row["full_cabin_coverage"], ".3f"),
+            _number(row["full_cabin_time"], ".1f"),
+            _score_cell(row["success"]),
+            _cost_cell(row["cost"]),
+            str(row["seeds"]),
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _number(value: float, number_format: str) -> str:
+    return "—" if math.isnan(value) else format(value, number_format)
+
+
+def headline_csv(rows: list[dict]) -> pd.DataFrame:
+    """The headline table as CSV columns (intervals as low/high, n beside each)."""
+    table = []
+    for row in rows:
+        entry = {"baseline": row["baseline"], "n_agents": row["n_agents"], "observes": row["observes"]}
+        for key in (*HEADLINE_SUITES, "success"):
+            values = (row[key] or Summary(math.nan, math.nan, math.nan, 0)).as_dict()
+            for field in ("mean", "ci_low", "ci_high", "n"):
+                entry[f"{key}_{field}"] = values[field]
+        entry.update(
+            full_cabin_coverage=row["full_cabin_coverage"],
+            full_cabin_time=row["full_cabin_time"],
+            train_env_steps=row["cost"].env_steps if row["cost"] else None,
+            train_wall_clock_s=row["cost"].wall_clock_s if row["cost"] else None,
+            seeds=row["seeds"],
+        )
+        table.append(entry)
+    return pd.DataFrame(table)
