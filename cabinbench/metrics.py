@@ -26,7 +26,9 @@ one record per episode. Definitions (areas are counted on the 0.05 m raster):
   goal marker of every cell; open: coverage ≥ the layout's ``success_coverage``);
 - ``time_limit``: simulated seconds the episode was allowed (its step limit × the step);
 - ``clean_time``: simulated seconds until coverage first reached the layout's
-  ``success_coverage`` (None if never): the floor counts as cleaned from then on;
+  ``success_coverage`` (None if never), read every :data:`CURVE_STRIDE` steps and at the last,
+  as the stored coverage curve samples it (so a stored curve gives it exactly): the floor counts
+  as cleaned from then on;
 - ``success``: the floor was cleaned within the limit (``clean_time`` is not None);
 - ``clean_score``: the headline score, :func:`clean_score`;
 - ``wall_time``: real seconds the episode took.
@@ -57,6 +59,9 @@ from cabinbench.sim.events import StepEvents
 from cabinbench.sim.physics import TIME_STEP
 from cabinbench.sim.world import World
 
+CURVE_STRIDE = 5
+"""Steps between the samples of an episode's stored coverage curve and positions (0.5 s; 0.25 m at
+full speed, under a robot radius); ``clean_time`` is read on the same samples."""
 COVERAGE_THRESHOLDS = (0.90, 0.95, 0.99)
 REACH_TIMES = (*(f"t{round(threshold * 100)}" for threshold in COVERAGE_THRESHOLDS), "clean_time")
 """The metrics of the time to reach a coverage level (t90, t95, t99, and the layout's own level,
@@ -170,10 +175,19 @@ class EpisodeTracker:
 
     def _note_thresholds(self) -> None:
         coverage = self.world.coverage
-        if self.clean_time is None and coverage >= self.world.layout.success_coverage:
+        if self.clean_time is None and self.steps % CURVE_STRIDE == 0 and self._cleaned(coverage):
             self.clean_time = self.steps * TIME_STEP
         while self._unreached_thresholds and coverage >= self._unreached_thresholds[0]:
             self.threshold_times[self._unreached_thresholds.pop(0)] = self.steps * TIME_STEP
+
+    def _cleaned(self, coverage: float) -> bool:
+        return coverage >= self.world.layout.success_coverage
+
+    def final_clean_time(self) -> float | None:
+        """``clean_time``, the last step counting as a sample."""
+        if self.clean_time is None and self._cleaned(self.world.coverage):
+            return self.steps * TIME_STEP
+        return self.clean_time
 
     @property
     def path_length(self) -> float:
@@ -203,6 +217,7 @@ class EpisodeTracker:
         """The episode record: every metric of :data:`METRICS` (and the team metrics for K > 1)."""
         world = self.world
         floor_pixels = int(world.floor_mask.sum())
+        clean_time = self.final_clean_time()
         record = {
             "coverage": world.coverage,
             "coverage_free": world.covered_floor_pixels / floor_pixels,
@@ -218,10 +233,10 @@ class EpisodeTracker:
             "cells_cleared": world.cells_cleared,
             "goals_reached": bool(world.success),
             "time_limit": self.time_limit,
-            "clean_time": self.clean_time,
-            "success": self.clean_time is not None,
+            "clean_time": clean_time,
+            "success": clean_time is not None,
             "clean_score": clean_score(
-                world.coverage, self.clean_time, self.time_limit, world.layout.success_coverage
+                world.coverage, clean_time, self.time_limit, world.layout.success_coverage
             ),
             "wall_time": clock.perf_counter() - self.started,
         }

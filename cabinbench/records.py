@@ -27,7 +27,7 @@ episode. The sibling ``.npz`` holds the map once, so that figures need nothing b
 
 and each episode's trajectory under ``episode<i>_<array>``:
 
-- ``steps`` (n,) int32: the env steps sampled: every :data:`TRAJECTORY_STRIDE`-th and the last;
+- ``steps`` (n,) int32: the env steps sampled: every :data:`~cabinbench.metrics.CURVE_STRIDE`-th and the last;
 - ``positions`` (n, K, 2) float32: robot centres (m) at those steps;
 - ``coverage`` (n,) float32: coverage at those steps;
 - ``pass_count`` (rows, cols) uint16: the final coverage raster (passes per pixel), from which
@@ -59,6 +59,7 @@ from cabinbench.layouts.complexity import layout_complexity
 from cabinbench.layouts.fields import RESOLUTION
 from cabinbench.layouts.model import Layout
 from cabinbench.layouts.resolve import load_layout
+from cabinbench.metrics import CURVE_STRIDE
 from cabinbench.version import __version__
 
 if TYPE_CHECKING:
@@ -81,7 +82,6 @@ RECORD_FIELDS = (
     "env_config",
     "timestamp",
 )
-TRAJECTORY_STRIDE = 5  # steps between stored positions: 0.25 m at full speed, under a robot radius
 
 
 @lru_cache(maxsize=1)
@@ -208,7 +208,7 @@ def trajectory_path(records_path: str | os.PathLike) -> Path:
 def downsample(trajectory: dict) -> dict:
     """The stored form of :func:`~cabinbench.episodes.run_episode`'s trajectory (see module doc)."""
     last = len(trajectory["coverage"]) - 1
-    steps = np.unique(np.append(np.arange(0, last + 1, TRAJECTORY_STRIDE), last)).astype(np.int32)
+    steps = np.unique(np.append(np.arange(0, last + 1, CURVE_STRIDE), last)).astype(np.int32)
     return {
         "steps": steps,
         "positions": trajectory["positions"][steps].astype(np.float32),
