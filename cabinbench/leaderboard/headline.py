@@ -53,9 +53,9 @@ class TrainingCost:
 
 def headline_score(episodes: pd.DataFrame) -> Summary:
     """A method's headline score on one set of layouts: per policy (training seed), the IQM over
-    layouts of each layout's mean ``clean_score``; over several policies a t interval of those
-    (n = policies), over one a bootstrap over layouts (n = layouts)."""
-    per_layout = episodes.groupby(["policy", "layout"])["clean_score"].mean()
+    the layouts every policy played of each layout's mean ``clean_score``; over several policies a
+    t interval of those (n = policies), over one a bootstrap over layouts (n = layouts)."""
+    per_layout = _common_layouts(episodes.groupby(["policy", "layout"])["clean_score"].mean())
     policies = per_layout.index.get_level_values("policy").unique()
     if len(policies) == 1:
         return _clipped(iqm_over_layouts(per_layout.to_numpy()))
@@ -66,11 +66,18 @@ def success_share(episodes: pd.DataFrame) -> Summary:
     """The share of episodes that cleaned the floor: per policy the mean over layouts of each
     layout's share; over several policies a t interval of those (n = policies), else a plain mean
     with n = episodes (its interval is the Wilson one of the detailed tables)."""
-    per_layout = episodes.groupby(["policy", "layout"])["success"].mean()
+    per_layout = _common_layouts(episodes.groupby(["policy", "layout"])["success"].mean())
     per_policy = per_layout.groupby(level="policy").mean()
     if len(per_policy) > 1:
         return _clipped(t_interval(per_policy.to_numpy()))
     return Summary(float(per_policy.iloc[0]), math.nan, math.nan, len(episodes))
+
+
+def _common_layouts(per_layout: pd.Series) -> pd.Series:
+    """Per-(policy, layout) values on the layouts every policy played: seeds are compared on the
+    same layouts."""
+    table = per_layout.unstack("policy").dropna()
+    return table.stack().swaplevel().sort_index()
 
 
 def _clipped(summary: Summary) -> Summary:

@@ -1,0 +1,118 @@
+"""The paper's abstract, its headline findings and its compute table, written from the headline
+rows (:mod:`cabinbench.leaderboard.headline`) so that every number in them is generated.
+
+Each sentence states what the numbers show and nothing stronger: a difference is called one only
+when the two intervals do not overlap; otherwise the sentence says the intervals overlap.
+"""
+
+from __future__ import annotations
+
+import math
+
+from cabinbench.leaderboard.headline import HEADLINE_SUITES, TrainingCost
+from cabinbench.stats import Summary
+
+PLANNERS = ("boustrophedon",)  # methods that are given the map and their pose
+RANDOM = ("random_bounce", "random_bounce_study")
+
+
+def score_text(summary: Summary | None, unit: str) -> str:
+    """``0.774 [0.741, 0.802] (n = 100 layouts)``."""
+    if summary is None:
+        return "not measured"
+    if math.isnan(summary.low):
+        return f"{summary.mean:.3f} (n = {summary.n} {unit})"
+    return f"{summary.mean:.3f} [{summary.low:.3f}, {summary.high:.3f}] (n = {summary.n} {unit})"
+
+
+def _unit(row: dict, suite: str) -> str:
+    return "seeds" if row[f"{suite} seeds"] > 1 else "layouts"
+
+
+def _name(row: dict) -> str:
+    return f"`{row['baseline']}`" + (f" (K = {row['n_agents']})" if row["n_agents"] > 1 else "")
+
+
+def separated(a: Summary, b: Summary) -> bool:
+    """The two intervals do not overlap (both must have one)."""
+    if any(math.isnan(bound) for bound in (a.low, a.high, b.low, b.high)):
+        return False
+    return a.low > b.high or b.low > a.high
+
+
+def _scored(rows: list[dict], suite: str) -> list[dict]:
+    return sorted((row for row in rows if row[suite] is not None), key=lambda row: -row[suite].mean)
+
+
+def findings(rows: list[dict]) -> list[str]:
+    """The headline findings, one sentence each, from the rows."""
+    test, ood = HEADLINE_SUITES
+    ranked = _scored([row for row in rows if row["n_agents"] == 1], test)
+    if not ranked:
+        return ["No method has records on the test suite yet."]
+    best, sentences = ranked[0], []
+    sentences.append(
+        f"On `{test}` the best single robot is {_name(best)} with a headline score of "
+        f"{score_text(best[test], _unit(best, test))}; it cleans the floor in "
+        f"{best['success'].mean:.0%} of the test episodes."
+    )
+    learned = [row for row in ranked if row["baseline"] not in (*PLANNERS, *RANDOM)]
+    if learned:
+        top = learned[0]
+        cleaned = max(row["success"].mean for row in learned if row["success"] is not None)
+        verb = "lies below" if separated(top[test], best[test]) else "overlaps"
+        sentences.append(
+            f"The best learned policy, {_name(top)}, scores {score_text(top[test], _unit(top, test))}, whose "
+            f"interval {verb} that of {_name(best)}; "
+            + (
+                "no learned policy cleans the floor in any test episode, so their scores rank coverage alone."
+                if cleaned == 0
+                else f"the learned policies clean the floor in at most {cleaned:.0%} of test episodes."
+            )
+        )
+    ood_ranked = _scored([row for row in rows if row["n_agents"] == 1], ood)
+    if ood_ranked:
+        drops = [
+            f"{_name(row)} {row[test].mean:.3f} → {row[ood].mean:.3f}"
+            for row in ood_ranked
+            if row[test] is not None
+        ]
+        sentences.append(f"Out of distribution (`{ood}`) the scores move as " + "; ".join(drops) + ".")
+    return sentences
+
+
+def abstract(rows: list[dict], complexity_finding: str) -> str:
+    """The abstract: what the benchmark is, then the findings and the complexity finding."""
+    methods = len({(row["baseline"], row["n_agents"]) for row in rows})
+    return " ".join(
+        [
+            "cabinbench is an open benchmark for complete coverage path planning by cleaning robots in "
+            "environments full of repeated obstacles, airline cabins first, built from a PhD study that "
+            "trained PPO with curiosity and GAIL to clean a cabin cell by cell.",
+            f"We score {methods} methods (planners, random motion, learned policies, teams) on generated "
+            "cabins held out from training and on cabins outside the training distribution, with a "
+            "headline score that counts cleaning the floor first and speed second, so that stopping "
+            "early with floor left dirty never pays.",
+            *findings(rows),
+            complexity_finding,
+        ]
+    )
+
+
+def compute_table(rows: list[dict]) -> str:
+    """Per learned method: env steps and wall-clock of its training, per run and over its runs."""
+    lines = [
+        "| method | training runs | env steps per run | wall-clock per run (h) | wall-clock, all runs (h) |",
+        "|---|---:|---:|---:|---:|",
+    ]
+    seen = set()
+    for row in sorted(rows, key=lambda row: row["baseline"]):
+        cost: TrainingCost | None = row["cost"]
+        if cost is None or row["baseline"] in seen:
+            continue
+        seen.add(row["baseline"])
+        lines.append(
+            f"| `{row['baseline']}` | {cost.runs} | {cost.env_steps / 1e6:.2f} M | "
+            f"{cost.wall_clock_s / 3600:.2f} | {cost.runs * cost.wall_clock_s / 3600:.2f} |"
+        )
+    return "\n".join(lines)
