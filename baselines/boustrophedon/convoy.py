@@ -57,9 +57,9 @@ from scipy import ndimage
 
 from cabinbench.geometry import (
     arc_lengths,
+    distances_to_segments,
     drop_repeated_points,
     nearest_point,
-    offsets_from_segments,
     segment_samples,
 )
 from cabinbench.layouts.fields import RESOLUTION
@@ -226,8 +226,7 @@ def _split_at_staging(
 def _distance_to_polyline(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
     if len(polyline) == 1:
         return np.hypot(*(points - polyline[0]).T)
-    offsets = offsets_from_segments(points, polyline[:-1], polyline[1:])
-    return np.sqrt((offsets**2).sum(axis=2)).min(axis=1)
+    return distances_to_segments(points, polyline[:-1], polyline[1:]).min(axis=1)
 
 
 def _split_at_last_goal(

@@ -20,7 +20,7 @@ from cabinbench.baselines.coverage_planning import FreeSpace
 from scipy import ndimage
 from scipy.sparse.csgraph import dijkstra
 
-from cabinbench.geometry import offsets_from_segments
+from cabinbench.geometry import segment_projections
 from cabinbench.layouts.model import Layout
 
 MERGE_BOUNDARY_PX = 3  # units meeting along this many pixels or more are merged
@@ -201,7 +201,7 @@ def _side_of_way(layout: Layout, way: np.ndarray, mask: np.ndarray) -> int:
         return 0
     points = mask_points(layout, mask)
     direction = way[1:] - way[:-1]
-    gaps = offsets_from_segments(points, way[:-1], way[1:])
+    _, gaps = segment_projections(points, way[:-1], way[1:])
     segment = np.argmin((gaps**2).sum(axis=2), axis=1)
     picked = gaps[np.arange(len(points)), segment]
     cross = direction[segment, 0] * picked[:, 1] - direction[segment, 1] * picked[:, 0]

@@ -20,7 +20,7 @@ import numpy as np
 from matplotlib.path import Path as PolygonPath
 from scipy import ndimage
 
-from cabinbench.geometry import resample_raster, world_to_pixel
+from cabinbench.geometry import distances_to_segments, resample_raster, world_to_pixel
 from cabinbench.layouts.fields import CONTACT_CLEARANCE, RESOLUTION, Cell, RasterMap, RobotSpec
 
 LAYOUT_PATH_VARIABLE = "CABINBENCH_LAYOUT_PATH"
@@ -147,11 +147,11 @@ class Layout:
         lows = np.array([points[members].min(axis=0) for members in groups])
         highs = np.array([points[members].max(axis=0) for members in groups])
         radii = np.hypot(*(highs - lows).T) / 2
-        to_centres = _point_segment_distances((lows + highs) / 2, starts, ends)  # every tile's at once
+        to_centres = distances_to_segments((lows + highs) / 2, starts, ends)  # every tile's at once
         nearest = np.empty(len(points))
         for members, to_centre, radius in zip(groups, to_centres, radii):
             near = to_centre <= to_centre.min() + 2 * radius + 1e-9
-            nearest[members] = _point_segment_distances(points[members], starts[near], ends[near]).min(axis=1)
+            nearest[members] = distances_to_segments(points[members], starts[near], ends[near]).min(axis=1)
         return nearest
 
     @cached_property
@@ -231,15 +231,6 @@ class Layout:
         cell_of = row_of[:, None] * grid_cols + col_of[None, :]
         standable = np.bincount(cell_of[self.centre_free], minlength=grid_rows * grid_cols)
         return (standable == 0).reshape(grid_rows, grid_cols)
-
-
-def _point_segment_distances(points: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
-    """(N, S) exact distances from each point to each segment."""
-    px, py = points[:, :1], points[:, 1:]
-    dx, dy = ends[:, 0] - starts[:, 0], ends[:, 1] - starts[:, 1]
-    length_sq = np.maximum(dx**2 + dy**2, 1e-12)
-    t = np.clip(((px - starts[:, 0]) * dx + (py - starts[:, 1]) * dy) / length_sq, 0.0, 1.0)
-    return np.sqrt((starts[:, 0] + t * dx - px) ** 2 + (starts[:, 1] + t * dy - py) ** 2)
 
 
 def geometry_hash(layout: Layout) -> str:
