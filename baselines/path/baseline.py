@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 from cabinbench.baselines.boustrophedon import Boustrophedon, Leg
+from cabinbench.baselines.path.export import export_plan
 from cabinbench.baselines.path.formats import read_paths
 from cabinbench.baselines.path.sweep import check_in_layout, planned_sweep
 
@@ -34,6 +35,9 @@ class PathBaseline(Boustrophedon):
     layout, one per robot) when an episode starts, or earlier by :meth:`planned`."""
 
     name = "path"
+    export_plan = staticmethod(export_plan)
+    """:func:`~.export.export_plan`, reachable through the registry (``baseline_class("path")``) by
+    ``run --export-path``, which may not import a baseline."""
 
     def __init__(self, file: str | list[str]):
         files = [file] if isinstance(file, str) else file
