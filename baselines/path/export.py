@@ -68,15 +68,16 @@ def export_plan(
     seed: int = 0,
     protocol: str = "sequential",
     random_start: bool = False,
+    config: dict | None = None,
 ) -> Path:
-    """Write the plan of ``baseline_name`` on ``layout`` (see :func:`planned_paths`) to ``file``:
-    ``.csv`` or ``.yaml`` (nav_msgs/Path) for one robot, ``.geojson`` for one or a team. Returns the
-    path written."""
+    """Write the plan of ``baseline_name`` (made with ``config``) on ``layout`` (see
+    :func:`planned_paths`) to ``file``: ``.csv`` or ``.yaml`` (nav_msgs/Path) for one robot,
+    ``.geojson`` for one or a team. Returns the path written."""
     kind = path_format(file)  # an unknown suffix is refused before planning
     if kind != "geojson" and n_agents > 1:
         raise BaselineError(
             f"{file}: a {kind} file holds one robot's path; write a team's to a .geojson file"
         )
-    paths = planned_paths(baseline_name, layout, n_agents, seed, protocol, random_start)
+    paths = planned_paths(baseline_name, layout, n_agents, seed, protocol, random_start, config)
     name = layout if isinstance(layout, str) else layout.name
     return write_paths(file, paths, f"{baseline_name} plan of {name}")
