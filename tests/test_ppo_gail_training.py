@@ -270,7 +270,7 @@ def test_the_results_do_not_depend_on_the_cores_the_training_uses(tmp_path):
     untimed = [
         [
             {k: v for k, v in row.items() if not k.endswith("time")}
-            for row in training.read_metrics(run / "metrics.csv")
+            for row in training_records.read_metrics(run / "metrics.csv")
         ]
         for run in (one, two)
     ]
@@ -298,8 +298,8 @@ def _input_size(state_dict: dict) -> int:
 
 
 def test_exported_actor_reproduces_rsl_rl_inference_policy(tmp_path):
-    from cabinbench.baselines.ppo_gail.algorithm import make_train_cfg
     from cabinbench.baselines.ppo_gail.policy import export_policy
+    from cabinbench.baselines.ppo_gail.runner_config import make_train_cfg
     from rsl_rl.runners import OnPolicyRunner
     from tensordict import TensorDict
 
@@ -435,8 +435,8 @@ def test_a_policy_runs_in_the_observation_it_was_trained_on(tmp_path):
 
 def _small_policy(tmp_path, **env_kwargs) -> os.PathLike:
     """An exported, untrained 'ppo' policy for the default 64-ray env (or one made with ``env_kwargs``)."""
-    from cabinbench.baselines.ppo_gail.algorithm import make_train_cfg
     from cabinbench.baselines.ppo_gail.policy import export_policy
+    from cabinbench.baselines.ppo_gail.runner_config import make_train_cfg
     from rsl_rl.runners import OnPolicyRunner
 
     from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
