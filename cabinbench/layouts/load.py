@@ -49,6 +49,7 @@ from cabinbench.layouts.model import DEFAULT_SUCCESS_COVERAGE, LAYOUT_PATH_VARIA
 from cabinbench.values import is_whole_number
 
 LAYOUT_KINDS: dict[str, LayoutKind] = {kind.name: kind for kind in (CABIN, GRID, POLYGONS, OCCUPANCY)}
+MAX_LAYOUT_FILE_BYTES = 2**20
 COMMON_KEYS = {
     "name",
     "kind",
@@ -120,7 +121,16 @@ def parse_yaml(text: str, source: str) -> dict:
 
 
 def read_layout(path: Path) -> Layout:
-    """Load the layout file at ``path``; a file that cannot be read is a :class:`LayoutError` too."""
+    """Load the layout file at ``path``; a file that cannot be read, or too large to read in seconds
+    (:data:`MAX_LAYOUT_FILE_BYTES`), is a :class:`LayoutError` too."""
+    if path.is_file() and path.stat().st_size > MAX_LAYOUT_FILE_BYTES:
+        raise LayoutError(
+            str(path),
+            "<file>",
+            f"is {path.stat().st_size / 2**20:,.1f} MiB, more than the {MAX_LAYOUT_FILE_BYTES // 2**20} MiB "
+            "a layout file may be (YAML of numbers reads at about 30 KiB a second)",
+            "draw a large map as an image (kind: occupancy), or a grid with fewer, larger cells",
+        )
     return parse_layout(read_text(path), source=str(path), default_name=path.stem)
 
 
