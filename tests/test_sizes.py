@@ -41,7 +41,7 @@ def square(side: float, obstacles: str = "[]") -> str:
 def triangles(count: int) -> str:
     """``count`` small triangles, in rows of 90."""
     corners = [(1 + (i % 90), 2 + (i // 90) * 0.5) for i in range(count)]
-    return "[" + ", ".join(f"[[{x}, {y}], [{x + 0.2}, {y}], [{x}, {y + 0.2}]]" for x, y in corners) + "]"
+    return "[" + ",".join(f"[[{x},{y}],[{x + 0.2:g},{y}],[{x},{y + 0.2:g}]]" for x, y in corners) + "]"
 
 
 def refused(path: Path) -> LayoutError:
@@ -49,7 +49,7 @@ def refused(path: Path) -> LayoutError:
     started = time.perf_counter()
     with pytest.raises(LayoutError) as caught:
         read_layout(path)
-    assert time.perf_counter() - started < 5.0  # the estimate (and the YAML), not a build that ran out
+    assert time.perf_counter() - started < 10.0  # the estimate (and the YAML): a build takes minutes
     assert caught.value.source == str(path)
     return caught.value
 
@@ -70,11 +70,6 @@ TOO_LARGE = {  # file name → (text, field named, words of the problem)
         square(100_000),
         "polygons.boundary",
         ["100,000.0 x 100,000.0 m floor", "allowed on this machine"],
-    ),
-    "obstacles.yaml": (
-        square(200, triangles(1_200)),
-        "polygons.obstacles",
-        ["200.0 x 200.0 m floor", "against 3604 walls"],
     ),
     "corners.yaml": (
         "kind: polygons\npolygons:\n  boundary: ["
@@ -106,6 +101,17 @@ def test_an_occupancy_map_too_large_is_refused_before_it_is_decoded(tmp_path):
     assert "GiB allowed on this machine" in error.problem
 
 
+def test_obstacles_with_too_many_walls_for_their_floor_are_refused(tmp_path):
+    side = 250  # the floor alone loads in under a minute; against 6,004 walls it would not
+    if raster_pixels(side, side) * RASTER_BYTES_PER_PIXEL > memory_budget():
+        pytest.skip("on this machine the floor alone is too large")
+    (tmp_path / "furnished.yaml").write_text(square(side, triangles(2_000)))
+    error = refused(tmp_path / "furnished.yaml")
+    assert error.field_name == "polygons.obstacles"
+    assert "a 250.0 x 250.0 m floor, a 5 cm raster of 2.5e+07 pixels against 6004 walls" in error.problem
+    assert "minutes to load" in error.problem
+
+
 def test_a_floor_that_fits_in_memory_but_loads_for_minutes_is_refused(tmp_path):
     side = 350  # 49 million pixels: about 10 GB, and over a minute
     (tmp_path / "hall.yaml").write_text(square(side))
@@ -130,7 +136,7 @@ def test_a_family_drawing_cabins_too_large_is_refused_when_loaded(tmp_path):
     started = time.perf_counter()
     with pytest.raises(LayoutError) as caught:
         load_family(path)
-    assert time.perf_counter() - started < 2.0
+    assert time.perf_counter() - started < 5.0
     assert caught.value.source == str(path) and caught.value.field_name == "cells"
 
 
@@ -147,7 +153,7 @@ def test_a_coverage_patch_too_large_is_refused_before_it_is_allocated():
         CoveragePatch(10**6)
     with pytest.raises(ValueError, match="^coverage_patch 1000000: "):
         gym.make("CabinBench/Coverage-v0", layout="a320_cell", coverage_patch=10**6)
-    assert time.perf_counter() - started < 2.0
+    assert time.perf_counter() - started < 5.0
     assert "\n" not in str(caught.value)
     assert CoveragePatch(64).size == 64 * 64
 

@@ -27,6 +27,9 @@ LAYOUT_PATH_VARIABLE = "CABINBENCH_LAYOUT_PATH"
 MARKER_RADIUS = 0.08  # goal cubes and exit landmarks, as the lidar sees them
 DEFAULT_SUCCESS_COVERAGE = 0.98  # "all coverable area covered", less the raster's rounding at edges
 WALL_TILE = 0.8  # metres: points per tile in Layout.distance_to_walls (about the gap between seat rows)
+# tile-to-wall distances Layout.distance_to_walls holds at once (each of its temporaries 32 MiB): a
+# long cabin's tiles times its walls would take gigabytes
+TILE_WALL_BATCH = 2**22
 
 
 @dataclass(frozen=True)
@@ -147,11 +150,16 @@ class Layout:
         lows = np.array([points[members].min(axis=0) for members in groups])
         highs = np.array([points[members].max(axis=0) for members in groups])
         radii = np.hypot(*(highs - lows).T) / 2
-        to_centres = distances_to_segments((lows + highs) / 2, starts, ends)  # every tile's at once
+        centres = (lows + highs) / 2
         nearest = np.empty(len(points))
-        for members, to_centre, radius in zip(groups, to_centres, radii):
-            near = to_centre <= to_centre.min() + 2 * radius + 1e-9
-            nearest[members] = distances_to_segments(points[members], starts[near], ends[near]).min(axis=1)
+        batch = max(1, TILE_WALL_BATCH // len(starts))  # tiles measured against every wall at once
+        for first in range(0, len(groups), batch):
+            to_centres = distances_to_segments(centres[first : first + batch], starts, ends)
+            for members, to_centre, radius in zip(groups[first : first + batch], to_centres, radii[first:]):
+                near = to_centre <= to_centre.min() + 2 * radius + 1e-9
+                nearest[members] = distances_to_segments(points[members], starts[near], ends[near]).min(
+                    axis=1
+                )
         return nearest
 
     @cached_property

@@ -8,14 +8,14 @@ Loading measures the floor on the coverage raster (:data:`~cabinbench.layouts.fi
 over the whole extent: the free floor, the clearance, the reachable and coverable pixels, the
 cells, the complexity grid, and in an episode the pass counts. Both its memory and its time grow
 with that raster's pixels; a polygon floor's clearance also takes time for every wall near each
-tile of floor (:meth:`~cabinbench.layouts.model.Layout.distance_to_walls`, which compares each
-tile with every wall, all at once). The rates below were measured (peak RSS by
+tile of floor (:meth:`~cabinbench.layouts.model.Layout.distance_to_walls` compares each tile with
+every wall, in batches of bounded memory). The rates below were measured (peak RSS by
 ``resource.getrusage``; load, complexity and a coverage raster) on an idle 2-core machine, and
-take twice as long when its cores are shared: an empty 300 m square (36 million pixels, 4 walls)
-in 56 s at 81 bytes a pixel; a cabin of 4,000 rows (4.7 million pixels, 32,004 walls against
-20,000 tiles) in 130 s at 31 bytes a tile and wall; a 200 m occupancy map at 5 cm (16 million
-pixels) in 18 s at 70 bytes a pixel, and at 1 cm (16 million map pixels, 0.64 million raster
-pixels) in 10.5 s at 37 bytes a map pixel.
+take up to twice as long when its cores are shared: an empty 300 m square (36 million pixels, 4
+walls) in 56 s at 81 bytes a pixel; a cabin of 4,000 rows (4.7 million pixels, 32,004 walls
+against 20,000 tiles) in 54 s (cores shared) at 532 MiB; a 200 m occupancy map at 5 cm (16
+million pixels) in 18 s at 70 bytes a pixel, and at 1 cm (16 million map pixels, 0.64 million
+raster pixels) in 10.5 s at 37 bytes a map pixel.
 """
 
 from __future__ import annotations
@@ -29,10 +29,9 @@ from cabinbench.memory import too_much_memory
 RASTER_BYTES_PER_PIXEL = 200  # peak bytes of loading and running, per coverage-raster pixel
 MAP_BYTES_PER_PIXEL = 60  # an occupancy map's own pixels, decoded and cleaned of speckles
 WALL_BYTES = 400  # one wall: its obstacle polygon (a NumPy array), its segment, its share of lists
-TILE_WALL_BYTES = 40  # one tile of floor against one wall: distance_to_walls holds them all at once
 SECONDS_PER_PIXEL = 1.5e-6
 SECONDS_PER_MAP_PIXEL = 0.6e-6
-SECONDS_PER_TILE_WALL = 2e-7  # one tile of floor compared with one wall
+SECONDS_PER_TILE_WALL = 6e-8  # one tile of floor compared with one wall
 MAX_LOAD_SECONDS = 60  # longer and a layout is refused: a benchmark loads each layout in every run
 
 
@@ -59,11 +58,7 @@ def check_layout_size(
     to make it smaller."""
     pixels = raster_pixels(width, height)
     tiles = _cells(width, WALL_TILE) * _cells(height, WALL_TILE)
-    needed = (
-        pixels * RASTER_BYTES_PER_PIXEL
-        + map_pixels * MAP_BYTES_PER_PIXEL
-        + walls * (WALL_BYTES + tiles * TILE_WALL_BYTES)
-    )
+    needed = pixels * RASTER_BYTES_PER_PIXEL + map_pixels * MAP_BYTES_PER_PIXEL + walls * WALL_BYTES
     raster = f"{what}, a 5 cm raster of {pixels:.3g} pixels" + (f" against {walls} walls" if walls else "")
     memory = too_much_memory(needed)
     if memory:
