@@ -90,7 +90,7 @@ CONFIG_CLASSES = list(dict.fromkeys(trainer.config_class for trainer in TRAINERS
 @dataclass
 class TrainCommand:
     """The options of the train command that are not the run's config: what to train, and what to do with
-    the run."""
+    the run. Declared as fields, like the config's, so that ``parse_args`` generates their options alike."""
 
     baselines: list[str] = option(flag="--baseline", metavar="NAME", required=True)
     """The learned baseline to train (with --seeds, several: one sweep of them all)."""

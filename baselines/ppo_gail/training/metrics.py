@@ -170,6 +170,7 @@ def training_summary(rows: list[dict], config: TrainConfig, train_time: float, w
 
 
 def progress_bar(config: TrainConfig, start: int, enabled: bool):
+    """The bar of the run's iterations on stderr, from ``start`` (a resumed run's); off unless ``enabled``."""
     from tqdm import tqdm
 
     return tqdm(
@@ -184,6 +185,7 @@ def progress_bar(config: TrainConfig, start: int, enabled: bool):
 
 
 def postfix(row: dict) -> dict:
+    """What the bar shows of an iteration's row: its episodes' reward, coverage and success."""
     shown = {}
     for name, label in (("episode_reward", "reward"), ("coverage", "cov"), ("success", "succ")):
         if row[name] is not None:
