@@ -147,6 +147,13 @@ def test_a_large_layout_that_fits_still_loads(tmp_path):
     assert len(layout.obstacles) == 600
 
 
+def test_a_cabin_of_hundreds_of_cells_loads_with_every_cell_its_own(tmp_path):
+    (tmp_path / "cells.yaml").write_text(cabin(200).replace("rows: 200,", "rows: 200, rows_per_cell: 1,"))
+    layout = read_layout(tmp_path / "cells.yaml")
+    assert len(layout.cells) == 200 and len(layout.passages) == 199
+    assert sorted(set(layout.cell_raster.ravel().tolist())) == list(range(200))  # no index wrapped round
+
+
 def test_a_coverage_patch_too_large_is_refused_before_it_is_allocated():
     started = time.perf_counter()
     with pytest.raises(ValueError, match=r"^coverage_patch 1000000: .* TiB") as caught:

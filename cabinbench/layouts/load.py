@@ -356,8 +356,12 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 def _validate_reachability(check: FieldChecker, layout: Layout):
     centre_free = layout.centre_free
     distance_to_reachable = ndimage.distance_transform_edt(~centre_free) * RESOLUTION
+    cell_of = layout.cell_raster
+    coverable_by_cell = np.bincount(
+        cell_of[layout.coverable_raster & (cell_of >= 0)], minlength=len(layout.cells)
+    )
     for cell_index, cell in enumerate(layout.cells):
-        if not (layout.coverable_raster & (layout.cell_raster == cell_index)).any():
+        if not coverable_by_cell[cell_index]:
             check.fail(
                 f"cells[{cell_index}]",
                 f"cell '{cell.name}' has no floor the robot can reach",

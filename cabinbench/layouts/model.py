@@ -198,7 +198,9 @@ class Layout:
     def cell_raster(self) -> np.ndarray:
         """Index of the cell each pixel belongs to (-1 outside every cell)."""
         xs, ys = self.pixel_centres()
-        labels = np.full(self.raster_shape, -1, dtype=np.int8)
+        labels = np.full(
+            self.raster_shape, -1, dtype=np.min_scalar_type(-len(self.cells))
+        )  # int8 to 128 cells
         for index, cell in enumerate(self.cells):
             xmin, ymin, xmax, ymax = cell.rect
             inside_x = (xs >= xmin) & (xs < xmax)
