@@ -2,9 +2,9 @@
 
 :func:`run_episode` plays one episode of a baseline on a layout. The baseline drives the robots
 only through the env's actions (never by moving them): one instance per robot, each told its seat
-in the team by :class:`~cabinbench.agents.EpisodeContext`. One robot goes through the Gymnasium
-:class:`~cabinbench.envs.coverage_env.CoverageEnv`; a team (K > 1) through the PettingZoo
-``cabinbench.parallel_env``. Both are driven by the same loop in PettingZoo's dict form.
+in the team by :class:`~cabinbench.agents.EpisodeContext`. Any number of robots, one included, play
+in the one env core, :class:`~cabinbench.envs.team_env.TeamCoverageEnv` (PettingZoo's parallel API;
+the Gymnasium env is that env with one robot).
 
 Seeding scheme: a run with base seed ``S`` plays episode ``i`` with seed ``S + i``: the env is
 reset with it and every baseline instance gets it as ``context.seed``. An episode is therefore
@@ -25,7 +25,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from cabinbench.agents import EpisodeContext, load_baseline
-from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.envs.team_env import TeamCoverageEnv
 from cabinbench.executors.base import Executor, JobFailure
 from cabinbench.executors.local import LocalExecutor
@@ -60,47 +59,9 @@ class EpisodeResult:
     trajectory: dict  # see run_episode
 
 
-class _SingleAgentAsParallel:
-    """The Gymnasium env seen through PettingZoo's parallel (dict) API, so one loop drives both."""
-
-    agent = "robot_0"
-
-    def __init__(self, env: CoverageEnv):
-        self.env, self.agents = env, []
-
-    @property
-    def unwrapped(self) -> CoverageEnv:
-        return self.env.unwrapped
-
-    def reset(self, seed: int):
-        observation, info = self.env.reset(seed=seed)
-        self.agents = [self.agent]
-        return {self.agent: observation}, {self.agent: info}
-
-    def step(self, actions: dict):
-        observation, reward, terminated, truncated, info = self.env.step(actions[self.agent])
-        if terminated or truncated:
-            self.agents = []
-        return (
-            {self.agent: observation},
-            {self.agent: reward},
-            {self.agent: terminated},
-            {self.agent: truncated},
-            {self.agent: info},
-        )
-
-    def close(self):
-        self.env.close()
-
-
-def make_env(layout: Layout, protocol: str, n_agents: int, env_kwargs: dict):
-    """The env for ``n_agents`` robots in PettingZoo's parallel API."""
-    if n_agents == 1:
-        return _SingleAgentAsParallel(CoverageEnv(layout, protocol=protocol, **env_kwargs))
-    team_kwargs = dict(env_kwargs)
-    if "max_steps" in team_kwargs:  # PettingZoo's name for the step limit
-        team_kwargs["max_cycles"] = team_kwargs.pop("max_steps")
-    return TeamCoverageEnv(layout=layout, n_agents=n_agents, protocol=protocol, **team_kwargs)
+def make_env(layout: Layout, protocol: str, n_agents: int, env_kwargs: dict) -> TeamCoverageEnv:
+    """The env for ``n_agents`` robots (one robot too) in PettingZoo's parallel API."""
+    return TeamCoverageEnv(layout, n_agents, protocol=protocol, **env_kwargs)
 
 
 def run_episode(
@@ -138,11 +99,11 @@ def run_episode(
             agent=index,
             n_agents=n_agents,
             env_config=env_kwargs,
-            observation_layout=env.unwrapped.observation_layout,
+            observation_layout=env.observation_layout,
         )
         baseline.reset(context, observations[agent], infos[agent])
 
-    world = env.unwrapped.world
+    world = env.world
     starts = [[float(v) for v in infos[agent]["pose"]] for agent in agents]
     positions = [[infos[agent]["pose"][:2] for agent in agents]]
     coverage = [infos[agents[0]]["coverage"]]
@@ -160,8 +121,7 @@ def run_episode(
         coverage.append(infos[agents[0]]["coverage"])
         if frame_every and (steps % frame_every == 0 or not env.agents):
             frames.append(draw_frame(world, np.array(positions)))
-    record = next(infos[agent]["episode_record"] for agent in agents if "episode_record" in infos[agent])
-    record = {**record, "start": starts[0] if n_agents == 1 else starts}
+    record = {**env.episode_record, "start": starts[0] if n_agents == 1 else starts}
     trajectory = {
         "positions": np.array(positions, dtype=np.float64),
         "coverage": np.array(coverage, dtype=np.float64),

@@ -11,30 +11,13 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from numba import njit
 from scipy import ndimage
 
 
 def wrap_angle(angle: float | np.ndarray) -> float | np.ndarray:
     """Angle wrapped to [-pi, pi); elementwise for an array."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
-
-
-def distances_to_segments(point: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
-    """Distance from ``point`` (x, y) to each segment ``starts[i]``-``ends[i]`` (arrays (M, 2)); a segment of
-    zero length is its start point."""
-    direction = ends - starts
-    length_sq = np.maximum((direction**2).sum(axis=1), 1e-12)
-    t = np.clip(((point - starts) * direction).sum(axis=1) / length_sq, 0.0, 1.0)
-    return np.hypot(*(starts + t[:, None] * direction - point).T)
-
-
-def points_to_segment(points: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
-    """Distance from each of ``points`` (N, 2) to the one segment ``start``-``end``."""
-    offsets = np.asarray(points, dtype=float) - start
-    delta = end - start
-    length2 = float(delta @ delta)
-    t = np.zeros(len(offsets)) if length2 == 0 else np.clip(offsets @ delta / length2, 0.0, 1.0)
-    return np.hypot(*(offsets - t[:, None] * delta).T)
 
 
 def world_to_pixel(point: Sequence[float], resolution: float, origin: Sequence[float]) -> tuple[int, int]:
@@ -53,13 +36,50 @@ def pixels_to_world(pixels: np.ndarray, resolution: float, origin: Sequence[floa
     )
 
 
-def offsets_from_segments(points: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
-    """For each of ``points`` (N, 2) and each segment ``starts[i]``-``ends[i]`` (M, 2), the vector from
-    the segment's nearest point to the point: shape (N, M, 2)."""
-    direction = ends - starts
-    length_sq = np.maximum((direction**2).sum(axis=1), 1e-12)
-    t = np.clip(((points[:, None, :] - starts[None]) * direction[None]).sum(axis=2) / length_sq[None], 0, 1)
-    return points[:, None, :] - (starts[None] + t[..., None] * direction[None])
+def segment_projections(points, starts: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The nearest point on each segment ``starts[i]``-``ends[i]`` (arrays (M, 2)) to each of ``points``
+    ((N, 2), or one point (2,)): ``t`` (N, M), where it lies along the segment (0 at the start, 1 at
+    the end), and the vector from it to the point, (N, M, 2). A segment of zero length is its start."""
+    t, offset_x, offset_y = _nearest_on_segments(points, starts, ends)
+    return t, np.stack([offset_x, offset_y], axis=-1)
+
+
+def distances_to_segments(points, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Exact distance from each of ``points`` ((N, 2), or one point (2,)) to each segment
+    ``starts[i]``-``ends[i]`` (arrays (M, 2)): shape (N, M)."""
+    _, offset_x, offset_y = _nearest_on_segments(points, starts, ends)
+    return np.sqrt(offset_x**2 + offset_y**2)
+
+
+def _nearest_on_segments(points, starts: np.ndarray, ends: np.ndarray):
+    """The one definition of a point's nearest point on a segment: ``t`` (N, M) and the offsets' x
+    and y (N, M) each (:func:`segment_offset` finds the same ``t`` compiled, for one point and one
+    segment). A squared length is floored at 1e-12, so that a segment of zero length is its start.
+    The offset is ``point - (start + t * along)``: the layouts' clearance is measured so."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    px, py = points[:, :1], points[:, 1:]
+    dx, dy = ends[:, 0] - starts[:, 0], ends[:, 1] - starts[:, 1]
+    length_sq = np.maximum(dx**2 + dy**2, 1e-12)
+    t = np.clip(((px - starts[:, 0]) * dx + (py - starts[:, 1]) * dy) / length_sq, 0.0, 1.0)
+    return t, px - (starts[:, 0] + t * dx), py - (starts[:, 1] + t * dy)
+
+
+# numba's cache of a kernel that calls this one does not notice a change here: after changing it,
+# delete the callers' cached kernels (``__pycache__/*.nbi``, ``*.nbc``) or they run the old code
+@njit(cache=True)
+def segment_offset(x, y, start_x, start_y, end_x, end_y):
+    """The vector from the nearest point of the segment ``start``-``end`` to the point (x, y), compiled
+    for the kernels that take one point and one segment at a time (the lidar, coverage footprints).
+
+    The same nearest point as :func:`segment_projections` (``t`` to the bit), but the offset is taken
+    from the start, ``(x - start) - t * along``: a shorter chain that keeps the footprint kernel as
+    fast as it was; it agrees with the numpy form to rounding. A segment of zero length is its start.
+    """
+    along_x, along_y = end_x - start_x, end_y - start_y
+    from_x, from_y = x - start_x, y - start_y
+    length_sq = along_x * along_x + along_y * along_y
+    t = 0.0 if length_sq == 0.0 else min(1.0, max(0.0, (from_x * along_x + from_y * along_y) / length_sq))
+    return from_x - t * along_x, from_y - t * along_y
 
 
 def polyline_length(points: np.ndarray) -> float:

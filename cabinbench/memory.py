@@ -31,6 +31,11 @@ def too_much_memory(needed: float) -> str | None:
     if needed <= memory_budget():
         return None
     return (
-        f"needs about {needed / GiB:,.1f} GiB, more than the {memory_budget() / GiB:.1f} GiB allowed "
+        f"needs about {_in_units(needed)}, more than the {memory_budget() / GiB:.1f} GiB allowed "
         f"on this machine ({machine_memory() / GiB:.1f} GiB)"
     )
+
+
+def _in_units(size: float) -> str:
+    """``size`` bytes in GiB, or TiB from 1,024 GiB on."""
+    return f"{size / GiB:,.1f} GiB" if size < 1024 * GiB else f"{size / (1024 * GiB):,.2f} TiB"

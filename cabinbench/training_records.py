@@ -57,7 +57,7 @@ def plot_curves(
     smoothing: int = 10,
     validation: list[dict] | None = None,
 ) -> None:
-    """2 x 3 panels like the seed's Fig. 5.8: the raw value per iteration (light) and a running mean (dark).
+    """2 x 3 panels like the study's Fig. 5.8: the raw value per iteration (light) and a running mean (dark).
     Panels of modules the ablation does not use say so. With ``validation`` (``validation.csv``'s rows) a
     seventh panel shows each checkpoint's validation coverage and success and marks the best one. The same
     rows give a byte-identical PNG."""

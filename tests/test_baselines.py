@@ -20,7 +20,7 @@ def run_episode(baseline_name, layout, protocol, seed=0, **env_kwargs):
     while True:
         observation, _, terminated, truncated, info = env.step(baseline.act(observation, info))
         if terminated or truncated:
-            return info["episode_record"]
+            return env.episode_record
 
 
 @pytest.mark.parametrize("protocol", ["sequential", "open"])

@@ -7,6 +7,7 @@ import torch
 
 from cabinbench.envs.batched import BatchedCoverageEnv
 from cabinbench.envs.coverage_env import CoverageEnv
+from cabinbench.envs.team_env import TeamCoverageEnv
 
 
 def _batched_run(num_workers: int, actions: torch.Tensor) -> list:
@@ -46,7 +47,7 @@ def test_batched_step_returns_tensors_later_steps_leave_alone():
 
 
 def test_observation_written_in_place_equals_a_fresh_one():
-    env = CoverageEnv("a320_tracking_cell")
+    env = TeamCoverageEnv("a320_tracking_cell", n_agents=1)  # the env core the batches step
     env.reset(seed=0)
     out = np.full(env.world.observation_size, np.nan, dtype=np.float32)
     for _ in range(20):

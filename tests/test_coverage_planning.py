@@ -41,7 +41,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.errors import UsageError
-from cabinbench.geometry import offsets_from_segments, world_to_pixel
+from cabinbench.geometry import distances_to_segments, world_to_pixel
 from cabinbench.sim.physics import TIME_STEP
 
 # The package exports the function ``route`` under the module's name.
@@ -252,8 +252,7 @@ def room_env(tmp_path, start: tuple[float, float], heading: float = 0.0) -> tupl
 
 def distance_to_polyline(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
     """Distance from each point to the nearest segment of a polyline."""
-    offsets = offsets_from_segments(points, polyline[:-1], polyline[1:])
-    return np.hypot(offsets[..., 0], offsets[..., 1]).min(axis=1)
+    return distances_to_segments(points, polyline[:-1], polyline[1:]).min(axis=1)
 
 
 # ------------------------------------------------------------------------------------------

@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import time
 
 import gymnasium as gym
 import numpy as np
@@ -16,7 +17,8 @@ import pytest
 import torch
 
 import cabinbench
-from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv, WorkerDied
+from cabinbench.envs.batch_engine import WorkerDied
+from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
 from cabinbench.envs.batched_team import BatchedTeamEnv, RslRlTeamVecEnv
 
 
@@ -144,7 +146,7 @@ def test_a_batch_of_no_envs_or_workers_is_refused_naming_the_argument(make, name
 def test_team_infos_without_the_record_keep_the_reset_keys_and_convert_to_tensors():
     """TorchRL's PettingZooWrapper builds its info spec from the reset's infos, then writes every
     step's info values into it with ``torch.tensor``."""
-    env = cabinbench.parallel_env(layout="a320_cell", n_agents=2, max_cycles=15, record_in_info=False)
+    env = cabinbench.parallel_env(layout="a320_cell", n_agents=2, max_steps=15)
     _, infos = env.reset(seed=0)
     spec = {
         agent: {key: torch.as_tensor(value).shape for key, value in info.items()}
@@ -163,7 +165,7 @@ def test_torchrl_pettingzoo_wrapper_rolls_over_episode_ends():
     from torchrl.envs.libs.pettingzoo import PettingZooWrapper
 
     env = PettingZooWrapper(
-        cabinbench.parallel_env(layout="a320_cell", n_agents=2, max_cycles=10, record_in_info=False),
+        cabinbench.parallel_env(layout="a320_cell", n_agents=2, max_steps=10),
         use_mask=True,
     )
     rollout = env.rollout(25, break_when_any_done=False)
@@ -232,6 +234,49 @@ def test_a_script_without_a_main_guard_fails_with_a_clear_error(tmp_path):
     )
     assert result.returncode != 0
     assert "WorkerDied" in result.stderr and "if __name__ == '__main__':" in result.stderr
+
+
+CTRL_C_SCRIPT = """
+import os, sys, torch
+from cabinbench.envs.batched import BatchedCoverageEnv
+
+if __name__ == "__main__":
+    env = BatchedCoverageEnv("a320_cell", num_envs=4, num_workers=3, max_steps=20)  # 2 worker processes
+    workers = [process.pid for _, process in env.workers]
+    print(*workers, flush=True)
+    try:
+        while True:
+            env.step(torch.zeros(4, 2))
+    except KeyboardInterrupt:
+        alive = [pid for pid in workers if os.path.exists(f"/proc/{pid}")]  # stopped and reaped
+        print("interrupted; workers left:", len(env.workers), "alive:", alive, file=sys.stderr)
+        sys.exit(130)
+"""
+
+
+def test_ctrl_c_while_stepping_stops_the_workers_without_their_tracebacks(tmp_path):
+    """A terminal sends Ctrl-C (SIGINT) to the whole process group: the workers must leave the
+    decision to the main process, which stops them and raises KeyboardInterrupt."""
+    script = tmp_path / "train.py"
+    script.write_text(CTRL_C_SCRIPT)
+    process = subprocess.Popen(
+        [sys.executable, str(script)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=tmp_path,
+        start_new_session=True,  # its own process group, as a terminal's foreground job
+    )
+    try:
+        assert len(process.stdout.readline().split()) == 2  # the workers are up; the batch steps
+        time.sleep(1.0)
+        os.killpg(process.pid, signal.SIGINT)
+        _, stderr = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    assert process.returncode == 130, stderr
+    assert "Traceback" not in stderr and "WorkerDied" not in stderr, stderr
+    assert "interrupted; workers left: 0 alive: []" in stderr
 
 
 def test_an_id_resolves_in_a_process_that_never_imports_cabinbench():

@@ -4,6 +4,7 @@ is tested for free."""
 
 import copy
 import pickle
+from dataclasses import replace
 
 import gymnasium as gym
 import numpy as np
@@ -12,6 +13,8 @@ from gymnasium.utils.env_checker import check_env
 from pettingzoo.test import parallel_api_test
 
 import cabinbench
+from cabinbench.envs.settings import EnvSettings
+from cabinbench.errors import LayoutError
 from cabinbench.metrics import METRICS
 from cabinbench.sim.observation import LIDAR_CHANNELS
 
@@ -121,7 +124,7 @@ def test_random_full_cabin_episode_has_every_metric():
         if terminated or truncated:
             break
     assert truncated
-    record = info["episode_record"]
+    record = env.unwrapped.episode_record
     assert set(METRICS) <= set(record)
     assert record["steps"] == 3000 and record["time"] == pytest.approx(300.0)
     assert 0 < record["coverage"] < 0.5 and record["collisions"] > 0
@@ -148,7 +151,7 @@ def test_bad_env_settings_are_refused_naming_the_argument(name, value):
 
 
 TEAM_BAD_SETTINGS = [
-    ("max_cycles", 0),
+    ("max_steps", 0),
     ("n_agents", 0),
     ("n_agents", 2.0),
     ("team_weight", float("nan")),
@@ -197,3 +200,77 @@ def test_batched_env_matches_single_envs_and_does_not_depend_on_workers():
     for action, batched_observation in zip(actions[:40, 1], runs[0][0][:40, 1]):
         observation = single.step(action.numpy())[0]
         np.testing.assert_array_equal(observation, batched_observation.numpy())
+
+
+def infos_of(env, info_or_infos) -> list[dict]:
+    return [info_or_infos] if isinstance(env, gym.Env) else list(info_or_infos.values())
+
+
+@pytest.mark.parametrize("name", [*ENV_IDS, TEAM])
+def test_infos_keep_the_reset_keys_and_hold_numpy_values_to_the_end(name):
+    """What Minari's record_infos, TorchRL's info readers and PettingZooWrapper rely on: one set of
+    keys through the episode (the record only in ``episode_record``), numpy values they can stack."""
+    env = make(name, max_steps=6)
+    _, reset_info = env.reset(seed=0)
+    keys = [set(info) for info in infos_of(env, reset_info)]
+    over = False
+    for step_number in range(6):
+        if isinstance(env, gym.Env):
+            *_, terminated, truncated, info = env.step(np.array([1.0, 0.3]))
+            over = terminated or truncated
+        else:
+            *_, info = env.step(dict.fromkeys(env.agents, np.array([1.0, 0.3])))
+            over = not env.agents
+        for agent_keys, agent_info in zip(keys, infos_of(env, info), strict=True):
+            assert set(agent_info) == agent_keys, f"step {step_number}"
+            assert all(isinstance(value, (np.generic, np.ndarray)) for value in agent_info.values()), (
+                agent_info
+            )
+    assert over and env.episode_record["steps"] == 6
+
+
+def test_record_in_info_puts_the_record_in_the_last_infos():
+    env = gym.make("CabinBench/A320Cell-v0", max_steps=3, record_in_info=True)
+    env.reset(seed=0)
+    infos = [env.step(np.zeros(2))[4] for _ in range(3)]
+    assert ["episode_record" in info for info in infos] == [False, False, True]
+    assert infos[-1]["episode_record"] is env.unwrapped.episode_record
+    team = cabinbench.parallel_env(layout="a320_cell", n_agents=2, max_steps=2, record_in_info=True)
+    team.reset(seed=0)
+    infos = [team.step({})[4] for _ in range(2)]
+    assert [
+        sorted(agent for agent, info in step_infos.items() if "episode_record" in info)
+        for step_infos in infos
+    ] == [
+        [],
+        ["robot_0", "robot_1"],
+    ]
+
+
+def test_both_envs_take_one_settings_object_and_refuse_unknown_arguments():
+    settings = EnvSettings(n_rays=16, coverage_patch=4, max_steps=9)
+    single = gym.make("CabinBench/A320Cell-v0", settings=settings).unwrapped
+    team = cabinbench.parallel_env(layout="a320_cell", n_agents=2, settings=settings, reward="coverage")
+    assert single.settings == settings and team.settings == replace(settings, reward="coverage")
+    assert single.observation_space.shape == team.observation_space("robot_1").shape == (6 * 16 + 16 + 2,)
+    assert single.max_steps == team.max_steps == 9
+    with pytest.raises(TypeError, match="unknown env argument 'n_ray'; the arguments are layout, protocol"):
+        gym.make("CabinBench/A320Cell-v0", n_ray=16)
+
+
+@pytest.mark.parametrize("layout", [123, 4.5, ["a320_cell"], None])
+def test_a_layout_that_is_no_name_or_path_is_a_layout_error(layout):
+    with pytest.raises(LayoutError, match=r"field 'layout': a \w+ is not a layout\. Fix: give a layout name"):
+        gym.make("CabinBench/Coverage-v0", layout=layout)
+    with pytest.raises(LayoutError):
+        cabinbench.parallel_env(layout=layout)
+
+
+def test_complex_actions_are_refused():
+    import torch
+
+    env = gym.make("CabinBench/A320Cell-v0").unwrapped
+    env.reset(seed=0)
+    for action in ([1 + 1j, 0.0], np.array([0.5, 0.5j]), torch.tensor([1.0, 0.0], dtype=torch.complex64)):
+        with pytest.raises(ValueError, match="action must be real numbers, got complex"):
+            env.step(action)

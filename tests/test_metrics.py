@@ -73,7 +73,7 @@ def test_record_has_every_metric_and_collisions_count_contacts():
     env.reset(seed=0)
     for _ in range(60):  # straight into the wall: one contact event, then pressing
         *_, truncated, info = env.step([1.0, 0.0])
-    record = info["episode_record"]
+    record = env.episode_record
     assert set(METRICS) <= set(record)
     assert record["collisions"] == 1
     # 0.825 m to the wall, plus the ~1 cm a first contact sinks in and is pushed back out

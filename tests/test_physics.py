@@ -41,7 +41,7 @@ def test_an_episode_after_others_is_the_episode_in_a_new_world(layout, n_robots)
 def test_an_episode_is_the_same_in_another_process():
     here = episode_digest(World(load_layout("a320_cell"), 3), seed=7)
     code = (
-        "from cabinbench.layouts.model import load_layout; from cabinbench.sim.world import World; "
+        "from cabinbench.layouts.resolve import load_layout; from cabinbench.sim.world import World; "
         "from tests.test_physics import episode_digest; "
         "print(episode_digest(World(load_layout('a320_cell'), 3), seed=7))"
     )

@@ -16,6 +16,7 @@ import torch
 from cabinbench.baselines.ppo_gail import training
 from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR, read_policy_file
 from cabinbench.baselines.ppo_gail.team_training import TeamTrainConfig
+from cabinbench.baselines.ppo_gail.training.loop import build_runner
 
 import cabinbench
 from cabinbench import training_records
@@ -131,7 +132,7 @@ def test_team_training_is_deterministic_and_the_critic_switch_changes_its_input(
     )
 
     config = tiny_config(validation_episodes=0)
-    runner, _ = training.build_runner(config, tmp_path / "a")
+    runner, _ = build_runner(config, tmp_path / "a")
     shipped = read_policy_file(CHECKPOINT_DIR / "ppo_gail.pt")
     observations = runner.env.get_observations()
     with torch.no_grad():
@@ -140,7 +141,7 @@ def test_team_training_is_deterministic_and_the_critic_switch_changes_its_input(
         )
     size, state_size = observations["policy"].shape[1], observations["state"].shape[1]
     assert runner.alg.critic.obs_dim == size + state_size
-    local, _ = training.build_runner(tiny_config(centralised_critic=False), tmp_path / "a")
+    local, _ = build_runner(tiny_config(centralised_critic=False), tmp_path / "a")
     assert local.alg.critic.obs_dim == size
 
 
@@ -173,5 +174,5 @@ def test_shipped_team_policy_drives_a_plain_pettingzoo_episode():
                 for agent, observation in observations.items()
             }
         observations, rewards, terminations, truncations, infos = env.step(actions)
-    record = infos["robot_0"]["episode_record"]
+    record = env.episode_record
     assert record["steps"] == 60 and record["coverage"] > start and min(record["path_lengths"]) > 0

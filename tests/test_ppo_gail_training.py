@@ -9,8 +9,10 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl's logger imports GitPython
@@ -27,6 +29,7 @@ from cabinbench import training_records
 from cabinbench.agents import load_baseline
 from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.episodes import run_episode
+from tests.test_run_and_leaderboard import ctrl_c_as_in_a_terminal
 
 SHIPPED = ("ppo_gail", "ppo", "ppo_icm", "ppo_gail_only")
 COMMITTED_TRAINING = Path(__file__).resolve().parents[1] / "results" / "training"
@@ -270,7 +273,7 @@ def test_the_results_do_not_depend_on_the_cores_the_training_uses(tmp_path):
     untimed = [
         [
             {k: v for k, v in row.items() if not k.endswith("time")}
-            for row in training.read_metrics(run / "metrics.csv")
+            for row in training_records.read_metrics(run / "metrics.csv")
         ]
         for run in (one, two)
     ]
@@ -298,8 +301,8 @@ def _input_size(state_dict: dict) -> int:
 
 
 def test_exported_actor_reproduces_rsl_rl_inference_policy(tmp_path):
-    from cabinbench.baselines.ppo_gail.algorithm import make_train_cfg
     from cabinbench.baselines.ppo_gail.policy import export_policy
+    from cabinbench.baselines.ppo_gail.runner_config import make_train_cfg
     from rsl_rl.runners import OnPolicyRunner
     from tensordict import TensorDict
 
@@ -395,6 +398,18 @@ def test_stochastic_option_samples_the_trained_gaussian_reproducibly(tmp_path):
     assert load_baseline("ppo", **config).config == config
 
 
+def test_a_learned_policy_leaves_the_process_torch_threads_alone(tmp_path):
+    """The policy acts on one thread (fast for one observation), without setting the process's count."""
+    config = {"checkpoint": str(_small_policy(tmp_path))}
+    threads = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        run_episode("ppo", "a320_cell", seed=3, config=config, env_kwargs={"max_steps": 5})
+        assert torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(threads)
+
+
 def test_a_policy_runs_in_the_observation_it_was_trained_on(tmp_path):
     """A policy trained with a coverage patch carries that setting: run_episode and the run CLI make the env
     with it, and the run's records say so."""
@@ -435,8 +450,8 @@ def test_a_policy_runs_in_the_observation_it_was_trained_on(tmp_path):
 
 def _small_policy(tmp_path, **env_kwargs) -> os.PathLike:
     """An exported, untrained 'ppo' policy for the default 64-ray env (or one made with ``env_kwargs``)."""
-    from cabinbench.baselines.ppo_gail.algorithm import make_train_cfg
     from cabinbench.baselines.ppo_gail.policy import export_policy
+    from cabinbench.baselines.ppo_gail.runner_config import make_train_cfg
     from rsl_rl.runners import OnPolicyRunner
 
     from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
@@ -525,6 +540,85 @@ def test_train_cli_rejects_unknown_baseline():
     assert "nope" in completed.stderr
     for name in SHIPPED:
         assert name in completed.stderr
+
+
+def test_train_checks_the_algorithm_settings_before_any_work(tmp_path):
+    """A misspelt ``--algorithm`` setting is one line naming it and the known ones, before the run starts."""
+    completed = subprocess.run(
+        [sys.executable, "-m", "cabinbench.train", "--baseline", "ppo", "--algorithm", '{"foo": 1}'],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert completed.returncode == 2 and "Traceback" not in completed.stderr
+    assert completed.stderr.startswith("error: algorithm: unknown setting(s) foo; known: ")
+    assert "gail_strength" in completed.stderr and len(completed.stderr.splitlines()) == 1
+    assert not (tmp_path / "runs").exists()
+
+
+def test_a_run_folder_trains_in_one_process_at_a_time_and_ctrl_c_is_one_line(tmp_path):
+    """A second ``train`` in a run folder that a process trains in is refused in one line (exit 2) and changes
+    nothing there; Ctrl-C (SIGINT to the process group, as a terminal sends it) then stops the first in one
+    line, exit 130."""
+    command = [sys.executable, "-m", "cabinbench.train", "--baseline", "ppo", "--layout", "a320_cell"]
+    command += [
+        "--num-envs",
+        "2",
+        "--steps-per-env",
+        "8",
+        "--validation-episodes",
+        "0",
+        "--save-interval",
+        "1",
+    ]
+    command += ["--workers", "1", "--no-progress", "--run-dir", "run"]
+    first = subprocess.Popen(
+        [*command, "--iterations", "1000"],
+        cwd=tmp_path,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        preexec_fn=ctrl_c_as_in_a_terminal,
+    )
+    run = tmp_path / "run"
+    deadline = time.monotonic() + 300
+    while not list((run / "checkpoints").glob("*.pt")):
+        assert first.poll() is None and time.monotonic() < deadline
+        time.sleep(0.2)
+    os.kill(first.pid, signal.SIGSTOP)  # the folder stands still while the second process tries
+    try:
+        before = {
+            path: (path.stat().st_mtime_ns, path.read_bytes()) for path in run.rglob("*") if path.is_file()
+        }
+        for extra in ([], ["--resume"]):
+            second = subprocess.run(
+                [*command, "--iterations", "2", *extra],
+                cwd=tmp_path,
+                capture_output=True,
+                text=True,
+                timeout=120,
+            )
+            assert second.returncode == 2
+            assert second.stderr.splitlines()[-1] == (
+                f"error: run is being trained by another process (pid {first.pid}); "
+                "wait for it or give another --run-dir"
+            )
+            assert "Traceback" not in second.stderr
+        after = {
+            path: (path.stat().st_mtime_ns, path.read_bytes()) for path in run.rglob("*") if path.is_file()
+        }
+        assert after == before
+    finally:
+        os.kill(first.pid, signal.SIGCONT)
+    os.killpg(first.pid, signal.SIGINT)
+    _, stderr = first.communicate(timeout=120)
+    assert first.returncode == 130 and "Traceback" not in stderr
+    assert (
+        stderr.splitlines()[-1] == "interrupted: finished checkpoints are kept in run; continue with --resume"
+    )
+    assert stderr.count("interrupted") == 1
 
 
 @pytest.mark.parametrize("name", SHIPPED)

@@ -23,7 +23,7 @@ def test_reaching_every_goal_clears_the_cell_and_ends_the_episode():
     env.reset(seed=0)
     info, terminated = drive(env, goal_tour(env.layout, 0))
     assert terminated
-    record = info["episode_record"]
+    record = env.episode_record
     assert record["success"] and record["cells_cleared"] == 1 and record["bound_violations"] == 0
 
 

@@ -14,7 +14,9 @@ from urllib.parse import unquote, urlsplit
 import pytest
 
 from cabinbench.commands import leaderboard, run
-from cabinbench.leaderboard.site import Entry, board_columns, build_site, suite_columns
+from cabinbench.leaderboard.site import Entry, build_site
+from cabinbench.leaderboard.site_board import board_columns
+from cabinbench.leaderboard.site_suites import suite_columns
 from cabinbench.leaderboard.table import group_rows, summarize_row
 from cabinbench.records import read_records
 

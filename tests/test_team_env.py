@@ -83,7 +83,7 @@ def test_aec_form_wraps_the_same_env():
 
 # ------------------------------------------------------------------------- determinism
 def rollout(seed: int, actions: np.ndarray):
-    env = cabinbench.parallel_env(**SMALL, lidar_noise=0.02, max_cycles=len(actions))
+    env = cabinbench.parallel_env(**SMALL, lidar_noise=0.02, max_steps=len(actions), record_in_info=True)
     observations, infos = env.reset(seed=seed)
     trace = [(observations, infos)]
     for step_actions in actions:
@@ -192,7 +192,7 @@ def test_team_success_terminates_everyone_with_a_record():
     assert (
         rewards.keys() == infos.keys() == set(env.possible_agents)
     )  # the finishing agents get their last step
-    record = infos["robot_0"]["episode_record"]
+    record = env.episode_record
     assert record["success"] and record["n_agents"] == 2 and len(record["path_lengths"]) == 2
     assert {"makespan", "load_balance", "robot_collisions"} <= record.keys()
     with pytest.raises(RuntimeError, match="reset"):
@@ -241,7 +241,7 @@ def test_rgb_frame_shows_every_robot_in_its_colour():
 
 # ------------------------------------------------------------------------- vector wrappers
 def test_supersuit_vector_env_steps_and_resets():
-    env = supersuit.pettingzoo_env_to_vec_env_v1(cabinbench.parallel_env(**SMALL, max_cycles=3))
+    env = supersuit.pettingzoo_env_to_vec_env_v1(cabinbench.parallel_env(**SMALL, max_steps=3))
     envs = supersuit.concat_vec_envs_v1(env, 2, num_cpus=0, base_class="gymnasium")
     observations, _ = envs.reset(seed=0)
     size = cabinbench.parallel_env(**SMALL).observation_space("robot_0").shape[0]

@@ -37,9 +37,7 @@ class Boustrophedon(Baseline):
 
     def reset(self, context: EpisodeContext, observation: np.ndarray, info: dict) -> None:
         super().reset(context, observation, info)
-        self.legs = plan_layout(  # from where the robot is: a suite episode starts anywhere in the start cell
-            context.layout, context.protocol, context.agent, context.n_agents, info["pose"][:2]
-        )
+        self.legs = self.plan(context, info)
         robot = context.layout.robot
         self.follower = PathFollower(
             self.legs[0].waypoints if self.legs else np.zeros((1, 2)),
@@ -55,6 +53,12 @@ class Boustrophedon(Baseline):
             config.get("n_rays", 64), config.get("lidar_range", 3.5), config.get("field_of_view", 2 * math.pi)
         )
         self.ray_angles, self.lidar_range = lidar.ray_angles(), lidar.max_range
+
+    def plan(self, context: EpisodeContext, info: dict) -> list[Leg]:
+        """This robot's legs in driving order (a subclass may take them from elsewhere, e.g. a file)."""
+        return plan_layout(  # from where the robot is: a suite episode starts anywhere in the start cell
+            context.layout, context.protocol, context.agent, context.n_agents, info["pose"][:2]
+        )
 
     def act(self, observation: np.ndarray, info: dict) -> np.ndarray:
         cleared = info.get("cells_cleared", 0) + self.context.layout.cleared_cells

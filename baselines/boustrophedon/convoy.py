@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from dataclasses import dataclass, field
 
 import numpy as np
 from cabinbench.baselines.boustrophedon.legs import (
@@ -57,9 +58,9 @@ from scipy import ndimage
 
 from cabinbench.geometry import (
     arc_lengths,
+    distances_to_segments,
     drop_repeated_points,
     nearest_point,
-    offsets_from_segments,
     segment_samples,
 )
 from cabinbench.layouts.fields import RESOLUTION
@@ -122,85 +123,136 @@ def _robot_legs(layout: Layout, split: TeamSplit, agent: int, n_agents: int) -> 
         waypoints = _sweep_path(layout, share, position, None, drivable & ~_others(stage, rank), drivable)
         return [Leg(waypoints, -1, "sweep", None, rank * DEPARTURE_GAP)]
 
-    legs: list[Leg] = []
-    wait = (None, rank * DEPARTURE_GAP, False)  # the next leg starts after (cell cleared, delay, gate)
+    legs = _LegList(wait=(None, rank * DEPARTURE_GAP, False))
     at_cell = layout.cell_raster[layout.to_pixel(*position)]
-    last_cell = len(layout.cells) - 1
     previous = None
-
-    def add(waypoints, cell, purpose):
-        nonlocal wait
-        if len(waypoints) > 1:
-            legs.append(Leg(np.asarray(waypoints, dtype=float), cell, purpose, *wait))
-            wait = (None, 0.0, False)
-
     for stage in split.stages:
         cell, share, goals = stage.cell, stage.sweeps[rank], stage.goals[rank]
         if not share.any():
             continue  # nothing for this robot here: it waits where it is
-        corridor = (
-            drivable
-            & (layout.cell_raster >= min(at_cell, cell))
-            & (layout.cell_raster <= cell)
-            & ~near_bounds(layout, min(at_cell, cell) - 1)
-            & ~near_bounds(layout, cell)
-        )
-        corridor |= share | (
-            near_points(layout, position[None], 2 * RESOLUTION) & drivable
-        )  # where it stands
-        # transits keep to the aisle and this robot's own share where they can
-        lane = corridor & ~_others(stage, rank)
-        if previous is not None:
-            lane &= ~_others(previous, rank)
+        corridor, lane = _stage_ways(layout, stage, previous, rank, position, at_cell, drivable)
         previous = stage
         if rank == 0 and cell > 0 and at_cell < cell:  # the leader moves the team on through the exit
             exit_point = nearest_point(layout.passages[cell - 1].exits, position)
-            add(transit(layout, lane, position, exit_point, corridor), cell - 1, "exit")
+            legs.add(transit(layout, lane, position, exit_point, corridor), cell - 1, "exit")
             position = exit_point
-        if cell == last_cell and len(goals):
-            # Reaching the last goal ends the episode: hold back this robot's final goal until
-            # the rest of its share is swept.
-            sweep = _sweep_path(layout, share, position, goals, lane, corridor)
-            final_goal, keep_off = held_back_goal(layout, sweep, goals)
-            sweep = _sweep_path(
-                layout, share & ~keep_off, position, goals, lane & ~keep_off, corridor & ~keep_off
-            )
-            add(sweep, cell, "sweep")
-            ways = share | (keep_off & drivable) | corridor
-            # the pixel nearest the goal that it may drive to: goals may sit where the disc cannot
-            position = pixel_centre(layout, nearest_pixel(ways, layout, final_goal))
-            add(transit(layout, ways & (lane | share | keep_off), sweep[-1], position, ways), cell, "goals")
-            # Until the team's last goal ends the episode, sweep what the hold-back left.
-            spot = keep_off & drivable & (share | corridor)
-            if spot[layout.to_pixel(*position)]:
-                add(plan_region(layout, spot, position, None, quickest=True).waypoints, cell, "sweep")
+        if cell == len(layout.cells) - 1 and len(goals):
+            position = _last_cell_legs(legs, layout, cell, share, goals, position, lane, corridor, drivable)
         else:
             sweep = _sweep_path(layout, share, position, goals, lane, corridor)
             if len(goals):
-                # Sweep up to the first touch of the last goal and wait there for the cell to
-                # clear; then back out to the staging point, clear of the aisle, and finish the
-                # sweep on the way out when this robot's turn in the convoy comes.
-                before, after = _split_at_last_goal(sweep, goals, layout.robot.radius - GOAL_TOUCH_MARGIN)
-                # the way out: the rest of the sweep, then back to the aisle
-                onto_way = (
-                    near_polyline(layout, stage.ways[0], RESOLUTION) & corridor & cell_region(layout, cell)
-                )
-                back_to_way = pixel_centre(layout, nearest_pixel(onto_way, layout, after[-1]))
-                back = transit(layout, lane, after[-1], back_to_way, corridor)
-                after = np.vstack([after, back[1:]])
-                out, rest = _split_at_staging(after, stage.ways, layout.robot.radius)
-                add(before, cell, "sweep")
-                wait = (cell, 0.0, False)
-                add(out, cell, "out")
-                wait = (cell, 0.0, True)
-                add(rest, cell, "sweep")
-                position = after[-1]
+                position = _sweep_and_stage_legs(legs, layout, stage, sweep, goals, lane, corridor)
             else:
-                add(sweep, cell, "sweep")
-                wait = (cell, 0.0, True)
+                legs.add(sweep, cell, "sweep")
+                legs.wait = (cell, 0.0, True)
                 position = sweep[-1]
         at_cell = cell
-    return legs
+    return legs.legs
+
+
+@dataclass
+class _LegList:
+    """A robot's legs as they are planned; ``wait`` is when the next one may start: (the cell whose
+    clearing it waits for or None, the delay after that, whether it is a departure gate)."""
+
+    wait: tuple[int | None, float, bool]
+    legs: list[Leg] = field(default_factory=list)
+
+    def add(self, waypoints, cell: int, purpose: str) -> None:
+        """Append a leg (none for a path of one point); the leg after it starts at once."""
+        if len(waypoints) > 1:
+            self.legs.append(Leg(np.asarray(waypoints, dtype=float), cell, purpose, *self.wait))
+            self.wait = (None, 0.0, False)
+
+
+def _stage_ways(
+    layout: Layout,
+    stage: TeamStage,
+    previous: TeamStage | None,
+    rank: int,
+    position: np.ndarray,
+    at_cell: int,
+    drivable: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(corridor, lane) of robot ``rank`` in ``stage``, coming from cell ``at_cell``: the corridor is
+    the drivable floor from there to the stage's cell, off the closed bounds, plus its share and
+    where it stands; the lane, where its transits keep to, is the corridor less what the other
+    robots sweep in this stage and the one before."""
+    cell = stage.cell
+    corridor = (
+        drivable
+        & (layout.cell_raster >= min(at_cell, cell))
+        & (layout.cell_raster <= cell)
+        & ~near_bounds(layout, min(at_cell, cell) - 1)
+        & ~near_bounds(layout, cell)
+    )
+    corridor |= stage.sweeps[rank] | (near_points(layout, position[None], 2 * RESOLUTION) & drivable)
+    lane = corridor & ~_others(stage, rank)
+    if previous is not None:
+        lane &= ~_others(previous, rank)
+    return corridor, lane
+
+
+def _last_cell_legs(
+    legs: _LegList,
+    layout: Layout,
+    cell: int,
+    share: np.ndarray,
+    goals: np.ndarray,
+    position: np.ndarray,
+    lane: np.ndarray,
+    corridor: np.ndarray,
+    drivable: np.ndarray,
+) -> np.ndarray:
+    """The legs of the last cell, where reaching the team's last goal ends the episode: the share
+    swept with this robot's final goal held back, the final goal, then the spot held back. Returns
+    where the robot ends. ``lane``, ``corridor``: as :func:`_stage_ways` gives them."""
+    sweep = _sweep_path(layout, share, position, goals, lane, corridor)
+    final_goal, keep_off = held_back_goal(layout, sweep, goals)
+    sweep = _sweep_path(layout, share & ~keep_off, position, goals, lane & ~keep_off, corridor & ~keep_off)
+    legs.add(sweep, cell, "sweep")
+    allowed = share | (keep_off & drivable) | corridor
+    # the pixel nearest the goal that it may drive to: goals may sit where the disc cannot
+    position = pixel_centre(layout, nearest_pixel(allowed, layout, final_goal))
+    legs.add(
+        transit(layout, allowed & (lane | share | keep_off), sweep[-1], position, allowed),
+        cell,
+        "goals",
+    )
+    # until the team's last goal ends the episode, sweep what the hold-back left
+    spot = keep_off & drivable & (share | corridor)
+    if spot[layout.to_pixel(*position)]:
+        legs.add(plan_region(layout, spot, position, None, quickest=True).waypoints, cell, "sweep")
+    return position
+
+
+def _sweep_and_stage_legs(
+    legs: _LegList,
+    layout: Layout,
+    stage: TeamStage,
+    sweep: np.ndarray,
+    goals: np.ndarray,
+    lane: np.ndarray,
+    corridor: np.ndarray,
+) -> np.ndarray:
+    """The legs of a cell with goals before the last: ``sweep`` up to the first touch of the last
+    goal, wait there for the cell to clear, back out to the staging point clear of the aisle, then
+    (a departure gate) the rest of the sweep on the way out when this robot's turn in the convoy
+    comes. Returns where the robot ends."""
+    cell = stage.cell
+    before, after = _split_at_last_goal(sweep, goals, layout.robot.radius - GOAL_TOUCH_MARGIN)
+    # the way out: the rest of the sweep, then back to the aisle
+    onto_way = near_polyline(layout, stage.ways[0], RESOLUTION) & corridor & cell_region(layout, cell)
+    back_to_way = pixel_centre(layout, nearest_pixel(onto_way, layout, after[-1]))
+    back = transit(layout, lane, after[-1], back_to_way, corridor)
+    after = np.vstack([after, back[1:]])
+    out, rest = _split_at_staging(after, stage.ways, layout.robot.radius)
+    legs.add(before, cell, "sweep")
+    legs.wait = (cell, 0.0, False)
+    legs.add(out, cell, "out")
+    legs.wait = (cell, 0.0, True)
+    legs.add(rest, cell, "sweep")
+    return after[-1]
 
 
 def _split_at_staging(
@@ -226,8 +278,7 @@ def _split_at_staging(
 def _distance_to_polyline(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
     if len(polyline) == 1:
         return np.hypot(*(points - polyline[0]).T)
-    offsets = offsets_from_segments(points, polyline[:-1], polyline[1:])
-    return np.sqrt((offsets**2).sum(axis=2)).min(axis=1)
+    return distances_to_segments(points, polyline[:-1], polyline[1:]).min(axis=1)
 
 
 def _split_at_last_goal(

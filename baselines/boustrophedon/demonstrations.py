@@ -70,7 +70,7 @@ def record_demonstrations(
                 episode_of.append(episode)
                 executed[agent] = action + noise.normal(0.0, action_noise, 2) if action_noise > 0 else action
             observation, _, _, _, info = env.step(executed)
-        records.append(next(iter(info.values()))["episode_record"])
+        records.append(env.episode_record)
     np.savez_compressed(
         path,
         observations=np.array(observations, dtype=np.float32),

@@ -14,7 +14,7 @@ from cabinbench.baselines.coverage_planning import FreeSpace
 from scipy import ndimage
 from scipy.sparse.csgraph import dijkstra
 
-from cabinbench.geometry import pixels_to_world, world_to_pixel
+from cabinbench.geometry import distances_to_segments, pixels_to_world, segment_projections, world_to_pixel
 from cabinbench.layouts.fields import RESOLUTION
 from cabinbench.layouts.model import Layout
 
@@ -50,13 +50,12 @@ def transit(
 
 def near_bounds(layout: Layout, passage: int) -> np.ndarray:
     """Pixels where the robot's disc would touch the bounds of ``passage`` (none if out of range)."""
-    near = np.zeros(layout.raster_shape, dtype=bool)
     if not 0 <= passage < len(layout.passages):
-        return near
-    grid_x, grid_y = np.meshgrid(*layout.pixel_centres())
-    for x0, y0, x1, y1 in layout.passages[passage].bounds:
-        near |= _distance_to_segment(grid_x, grid_y, (x0, y0), (x1, y1)) < layout.robot.radius + BOUND_MARGIN
-    return near
+        return np.zeros(layout.raster_shape, dtype=bool)
+    bounds = layout.passages[passage].bounds
+    centres = mask_points(layout, np.ones(layout.raster_shape, dtype=bool))
+    distances = distances_to_segments(centres, bounds[:, :2], bounds[:, 2:]).min(axis=1)
+    return (distances < layout.robot.radius + BOUND_MARGIN).reshape(layout.raster_shape)
 
 
 def cell_region(layout: Layout, cell: int) -> np.ndarray:
@@ -79,34 +78,22 @@ def reachable(layout: Layout) -> np.ndarray:
 def arc_position(way: np.ndarray, layout: Layout, mask: np.ndarray) -> np.ndarray:
     """For each pixel of ``mask``, how far along ``way`` (metres) its nearest point lies."""
     points = mask_points(layout, mask)
-    starts, ends = way[:-1], way[1:]
-    direction = ends - starts
-    length = np.sqrt(np.maximum((direction**2).sum(axis=1), 1e-12))
-    t = np.clip(((points[:, None, :] - starts[None]) * direction[None]).sum(axis=2) / length[None] ** 2, 0, 1)
-    nearest = starts[None] + t[..., None] * direction[None]
-    segment = np.argmin(((points[:, None, :] - nearest) ** 2).sum(axis=2), axis=1)
-    offsets = np.concatenate([[0.0], np.cumsum(length)])
-    return offsets[segment] + t[np.arange(len(points)), segment] * length[segment]
+    t, offsets = segment_projections(points, way[:-1], way[1:])
+    segment = np.argmin((offsets**2).sum(axis=2), axis=1)
+    length = np.sqrt(np.maximum((np.diff(way, axis=0) ** 2).sum(axis=1), 1e-12))
+    along = np.concatenate([[0.0], np.cumsum(length)])
+    return along[segment] + t[np.arange(len(points)), segment] * length[segment]
 
 
 def near_polyline(layout: Layout, points: np.ndarray, distance: float) -> np.ndarray:
     """Pixels whose centre lies within ``distance`` of the polyline ``points`` (N, 2)."""
-    grid_x, grid_y = np.meshgrid(*layout.pixel_centres())
+    centres = mask_points(layout, np.ones(layout.raster_shape, dtype=bool))
     near = np.zeros(layout.raster_shape, dtype=bool)
     if len(points) == 1:
         points = np.vstack([points, points])
     for start, end in zip(points[:-1], points[1:]):
-        near |= _distance_to_segment(grid_x, grid_y, start, end) <= distance
+        near |= distances_to_segments(centres, start[None], end[None]).reshape(near.shape) <= distance
     return near
-
-
-def _distance_to_segment(grid_x: np.ndarray, grid_y: np.ndarray, start, end) -> np.ndarray:
-    """Distance from each pixel centre (``grid_x``, ``grid_y``) to the segment ``start``-``end``."""
-    (x0, y0), (x1, y1) = start, end
-    direction = np.array([x1 - x0, y1 - y0])
-    length_sq = max(float(direction.dot(direction)), 1e-12)
-    t = np.clip(((grid_x - x0) * direction[0] + (grid_y - y0) * direction[1]) / length_sq, 0, 1)
-    return np.hypot(grid_x - (x0 + t * direction[0]), grid_y - (y0 + t * direction[1]))
 
 
 def nearest_pixel(region: np.ndarray, layout: Layout, point: np.ndarray) -> tuple[int, int]:

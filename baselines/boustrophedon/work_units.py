@@ -20,7 +20,7 @@ from cabinbench.baselines.coverage_planning import FreeSpace
 from scipy import ndimage
 from scipy.sparse.csgraph import dijkstra
 
-from cabinbench.geometry import offsets_from_segments
+from cabinbench.geometry import segment_projections
 from cabinbench.layouts.model import Layout
 
 MERGE_BOUNDARY_PX = 3  # units meeting along this many pixels or more are merged
@@ -50,44 +50,8 @@ def work_units(
     """
     region = np.asarray(region, dtype=bool)
     rest = region & ~through
-    units, unit_goals = [], []
     if len(goals):
-        labels, count = ndimage.label(rest)
-        owner = np.array([labels[nearest_pixel(rest, layout, goal)] for goal in goals])
-        for piece_label in range(1, count + 1):
-            piece = labels == piece_label
-            mine = goals[owner == piece_label]
-            if len(mine):
-                parts = _voronoi(layout, piece, mine) if len(mine) > 1 else [(piece, mine)]
-                units += [part for part, _ in parts]
-                unit_goals += [part_goals for _, part_goals in parts]
-        if not units:
-            units, unit_goals = [rest], [goals]
-        # pieces without a goal marker join the nearest unit on the same side of the way
-        # (pieces beyond the last goal marker, at the dead end of the way, go to one robot: two
-        # robots would meet head-on in the aisle on their ways there and back)
-        sides = [_side_of_way(layout, way, unit) for unit in units]
-        gaps = [ndimage.distance_transform_edt(~unit) for unit in units]
-        reach = (
-            max(float(arc_position(way, layout, unit).max()) for unit in units) if len(way) > 1 else np.inf
-        )
-        beyond = []
-        for piece_label in range(1, count + 1):
-            if (owner == piece_label).any():
-                continue
-            piece = labels == piece_label
-            side = _side_of_way(layout, way, piece)
-            candidates = [k for k in range(len(units)) if sides[k] == side] or list(range(len(units)))
-            k = min(candidates, key=lambda j: gaps[j][piece].min())
-            units[k] = units[k] | piece
-            if len(way) > 1 and arc_position(way, layout, piece).min() > reach:
-                beyond.append(k)
-        beyond = sorted(set(beyond))
-        if len(beyond) > 1:
-            keep = beyond[0]
-            for k in beyond[:0:-1]:
-                units[keep] = units[keep] | units.pop(k)
-                unit_goals[keep] = np.concatenate([unit_goals[keep], unit_goals.pop(k)])
+        units, unit_goals = _units_around_goals(layout, rest, goals, way)
         units, unit_goals = _merge_open_units(np.array(units), unit_goals)
         units, unit_goals = _attach_to_way(units, unit_goals, through)
         units, unit_goals = list(units), list(unit_goals)
@@ -97,18 +61,7 @@ def work_units(
         units = [unit for unit in (team_share(layout, rest, k, parts) for k in range(parts)) if unit.any()]
         unit_goals = [np.zeros((0, 2)) for _ in units]
         keys = [_centroid(layout, unit) for unit in units]
-    while len(units) < n_agents:  # more robots than units: halve the largest open unit
-        widths = [ndimage.distance_transform_edt(unit).max() for unit in units]
-        open_units = [k for k, width in enumerate(widths) if width >= OPEN_UNIT_PX]
-        if not open_units:
-            break  # pockets only: the extra robots wait
-        k = max(open_units, key=lambda j: units[j].sum())
-        first, second = _halve(units[k])
-        goals_k = unit_goals[k]
-        in_first = np.array([first[nearest_pixel(units[k], layout, g)] for g in goals_k], dtype=bool)
-        units[k : k + 1] = [first, second]
-        unit_goals[k : k + 1] = [goals_k[in_first], goals_k[~in_first]]
-        keys[k : k + 1] = [_centroid(layout, first), _centroid(layout, second)]
+    _halve_until_one_each(layout, units, unit_goals, keys, n_agents)
     centre_x = np.mean([key[0] for key in keys]) if keys else 0.0
     direction = 1.0 if entry[0] <= centre_x else -1.0  # the far end is the one away from the entry
     order = sorted(
@@ -117,6 +70,72 @@ def work_units(
     return np.array([units[k] for k in order]).reshape(len(order), *region.shape), [
         unit_goals[k] for k in order
     ]
+
+
+def _units_around_goals(layout: Layout, rest: np.ndarray, goals: np.ndarray, way: np.ndarray):
+    """``rest`` (the region less the band) cut into pieces, the pieces with several goal markers cut
+    between them, and the pieces without one joined to a unit: (unit masks, goal markers per unit)."""
+    labels, count = ndimage.label(rest)
+    owner = np.array([labels[nearest_pixel(rest, layout, goal)] for goal in goals])
+    units, unit_goals = [], []
+    for piece_label in range(1, count + 1):
+        piece = labels == piece_label
+        mine = goals[owner == piece_label]
+        if len(mine):
+            parts = _voronoi(layout, piece, mine) if len(mine) > 1 else [(piece, mine)]
+            units += [part for part, _ in parts]
+            unit_goals += [part_goals for _, part_goals in parts]
+    if not units:
+        return [rest], [goals]
+    goalless = [
+        labels == piece_label for piece_label in range(1, count + 1) if not (owner == piece_label).any()
+    ]
+    _join_goalless_pieces(layout, units, unit_goals, goalless, way)
+    return units, unit_goals
+
+
+def _join_goalless_pieces(
+    layout: Layout, units: list[np.ndarray], unit_goals: list[np.ndarray], pieces: list[np.ndarray], way
+) -> None:
+    """Join each of ``pieces`` (no goal marker) to the nearest unit on its side of ``way``, in place.
+    The units that pieces beyond the last goal marker joined, at the dead end of the way, become
+    one: two robots would meet head-on in the aisle on their ways there and back."""
+    sides = [_side_of_way(layout, way, unit) for unit in units]
+    gaps = [ndimage.distance_transform_edt(~unit) for unit in units]
+    reach = max(float(arc_position(way, layout, unit).max()) for unit in units) if len(way) > 1 else np.inf
+    beyond = []
+    for piece in pieces:
+        side = _side_of_way(layout, way, piece)
+        candidates = [k for k in range(len(units)) if sides[k] == side] or list(range(len(units)))
+        k = min(candidates, key=lambda j: gaps[j][piece].min())
+        units[k] = units[k] | piece
+        if len(way) > 1 and arc_position(way, layout, piece).min() > reach:
+            beyond.append(k)
+    beyond = sorted(set(beyond))
+    if len(beyond) > 1:
+        keep = beyond[0]
+        for k in beyond[:0:-1]:
+            units[keep] = units[keep] | units.pop(k)
+            unit_goals[keep] = np.concatenate([unit_goals[keep], unit_goals.pop(k)])
+
+
+def _halve_until_one_each(
+    layout: Layout, units: list[np.ndarray], unit_goals: list[np.ndarray], keys: list, n_agents: int
+) -> None:
+    """While there are fewer units than robots, halve the largest open unit (in place: ``units``,
+    their goal markers and their sort ``keys``); pockets only, and the extra robots wait."""
+    while len(units) < n_agents:
+        widths = [ndimage.distance_transform_edt(unit).max() for unit in units]
+        open_units = [k for k, width in enumerate(widths) if width >= OPEN_UNIT_PX]
+        if not open_units:
+            return
+        k = max(open_units, key=lambda j: units[j].sum())
+        first, second = _halve(units[k])
+        goals_k = unit_goals[k]
+        in_first = np.array([first[nearest_pixel(units[k], layout, g)] for g in goals_k], dtype=bool)
+        units[k : k + 1] = [first, second]
+        unit_goals[k : k + 1] = [goals_k[in_first], goals_k[~in_first]]
+        keys[k : k + 1] = [_centroid(layout, first), _centroid(layout, second)]
 
 
 def team_share(layout: Layout, region: np.ndarray, agent: int, n_agents: int) -> np.ndarray:
@@ -201,7 +220,7 @@ def _side_of_way(layout: Layout, way: np.ndarray, mask: np.ndarray) -> int:
         return 0
     points = mask_points(layout, mask)
     direction = way[1:] - way[:-1]
-    gaps = offsets_from_segments(points, way[:-1], way[1:])
+    _, gaps = segment_projections(points, way[:-1], way[1:])
     segment = np.argmin((gaps**2).sum(axis=2), axis=1)
     picked = gaps[np.arange(len(points)), segment]
     cross = direction[segment, 0] * picked[:, 1] - direction[segment, 1] * picked[:, 0]

@@ -13,7 +13,7 @@ import numpy as np
 from cabinbench.baselines.coverage_planning.free_space import FreeSpace, _segment_is_free
 from numba import njit
 
-from cabinbench.geometry import drop_redundant_points, polyline_length, wrap_angle
+from cabinbench.geometry import drop_redundant_points, polyline_length, segment_offset, wrap_angle
 
 # A corner is only cut out when the shortcut covers what the corner alone covered with this much
 # to spare (metres), so that a robot tracking the path a centimetre off still covers it.
@@ -72,12 +72,7 @@ def _drop_idle_corners(points, free, radius, reach, max_passes):
     height, width = free.shape
     count = len(points)
     following, preceding = np.arange(1, count + 1), np.arange(-1, count - 1)
-    footprints = [
-        _segment_footprint(
-            points[i, 0], points[i, 1], points[i + 1, 0], points[i + 1, 1], radius, height, width
-        )
-        for i in range(count - 1)
-    ]
+    footprints = [_footprint_between(points, i, i + 1, radius, height, width) for i in range(count - 1)]
     counts = np.zeros(free.size, dtype=np.int32)
     for footprint in footprints:
         for pixel in footprint:
@@ -88,51 +83,26 @@ def _drop_idle_corners(points, free, radius, reach, max_passes):
         corner = following[0]
         while following[corner] < count:
             before, after = preceding[corner], following[corner]
-            detour = np.sqrt(
-                (points[corner, 0] - points[before, 0]) ** 2 + (points[corner, 1] - points[before, 1]) ** 2
-            ) + np.sqrt(
-                (points[after, 0] - points[corner, 0]) ** 2 + (points[after, 1] - points[corner, 1]) ** 2
-            )
-            delta_row, delta_col = points[after, 0] - points[before, 0], points[after, 1] - points[before, 1]
-            if detour - np.hypot(delta_row, delta_col) <= 1e-6 or not _segment_is_free(
-                free, points[before, 0], points[before, 1], points[after, 0], points[after, 1]
+            if (
+                not _is_detour(points, before, corner, after)
+                or not _segment_is_free(
+                    free, points[before, 0], points[before, 1], points[after, 0], points[after, 1]
+                )
+                or _shortcut_loses_coverage(
+                    points[before],
+                    points[after],
+                    footprints[before],
+                    footprints[corner],
+                    counts,
+                    mine,
+                    width,
+                    reach,
+                )
             ):
                 corner = after
                 continue
-            replaced = (footprints[before], footprints[corner])
-            for footprint in replaced:
-                for pixel in footprint:
-                    mine[pixel] += 1
-            # the pixels only the replaced segments cover must lie within reach of the shortcut
-            length2 = delta_row * delta_row + delta_col * delta_col
-            loses = False
-            for footprint in replaced:
-                for pixel in footprint:
-                    if loses or counts[pixel] != mine[pixel]:
-                        continue
-                    off_row, off_col = pixel // width - points[before, 0], pixel % width - points[before, 1]
-                    t = (
-                        0.0
-                        if length2 == 0
-                        else min(max((off_row * delta_row + off_col * delta_col) / length2, 0.0), 1.0)
-                    )
-                    loses = np.hypot(off_row - t * delta_row, off_col - t * delta_col) > reach + 1e-9
-            for footprint in replaced:
-                for pixel in footprint:
-                    mine[pixel] = 0
-            if loses:
-                corner = after
-                continue
-            shortcut = _segment_footprint(
-                points[before, 0],
-                points[before, 1],
-                points[after, 0],
-                points[after, 1],
-                radius,
-                height,
-                width,
-            )
-            for footprint in replaced:
+            shortcut = _footprint_between(points, before, after, radius, height, width)
+            for footprint in (footprints[before], footprints[corner]):
                 for pixel in footprint:
                     counts[pixel] -= 1
             for pixel in shortcut:
@@ -147,6 +117,49 @@ def _drop_idle_corners(points, free, radius, reach, max_passes):
     while following[kept[-1]] < count:
         kept.append(following[kept[-1]])
     return np.array(kept)
+
+
+@njit(cache=True)
+def _footprint_between(points, first, second, radius, height, width):
+    """The footprint of the segment from waypoint ``first`` to waypoint ``second``."""
+    return _segment_footprint(
+        points[first, 0], points[first, 1], points[second, 0], points[second, 1], radius, height, width
+    )
+
+
+@njit(cache=True)
+def _is_detour(points, before, corner, after):
+    """Whether going through waypoint ``corner`` is longer (by more than a micro-pixel) than going
+    straight from ``before`` to ``after``."""
+    detour = np.sqrt(
+        (points[corner, 0] - points[before, 0]) ** 2 + (points[corner, 1] - points[before, 1]) ** 2
+    ) + np.sqrt((points[after, 0] - points[corner, 0]) ** 2 + (points[after, 1] - points[corner, 1]) ** 2)
+    straight = np.hypot(points[after, 0] - points[before, 0], points[after, 1] - points[before, 1])
+    return detour - straight > 1e-6
+
+
+@njit(cache=True)
+def _shortcut_loses_coverage(start, end, first, second, counts, mine, width, reach):
+    """Whether some pixel that only the two footprints ``first`` and ``second`` cover (``counts``:
+    how many segments cover each flat pixel index, rows ``width`` long) lies farther than ``reach``
+    from the shortcut ``start``-``end``. ``mine``, of ``counts``' size, is scratch space: all zeros
+    before and after."""
+    loses = False
+    for footprint in (first, second):
+        for pixel in footprint:
+            mine[pixel] += 1
+    for footprint in (first, second):
+        for pixel in footprint:
+            if loses or counts[pixel] != mine[pixel]:
+                continue
+            off_row, off_col = segment_offset(
+                pixel // width, pixel % width, start[0], start[1], end[0], end[1]
+            )
+            loses = np.hypot(off_row, off_col) > reach + 1e-9
+    for footprint in (first, second):
+        for pixel in footprint:
+            mine[pixel] = 0
+    return loses
 
 
 def segment_footprint(
@@ -165,16 +178,11 @@ def _segment_footprint(start_row, start_col, end_row, end_col, radius, height, w
     low_col = max(int(np.floor(min(start_col, end_col) - radius)), 0)
     high_row = min(int(np.ceil(max(start_row, end_row) + radius)), height - 1)
     high_col = min(int(np.ceil(max(start_col, end_col) + radius)), width - 1)
-    delta_row, delta_col = end_row - start_row, end_col - start_col
-    length2 = delta_row * delta_row + delta_col * delta_col
     pixels = np.empty(max(high_row - low_row + 1, 0) * max(high_col - low_col + 1, 0), dtype=np.int64)
     count = 0
     for row in range(low_row, high_row + 1):
-        rows = row - start_row
         for col in range(low_col, high_col + 1):
-            cols = col - start_col
-            t = 0.0 if length2 == 0 else min(max((rows * delta_row + cols * delta_col) / length2, 0.0), 1.0)
-            off_row, off_col = rows - t * delta_row, cols - t * delta_col
+            off_row, off_col = segment_offset(row, col, start_row, start_col, end_row, end_col)
             if off_row * off_row + off_col * off_col <= radius * radius + 1e-9:
                 pixels[count] = row * width + col
                 count += 1

@@ -17,7 +17,9 @@ import time
 from pathlib import Path
 
 from cabinbench.baselines.ppo_gail.algorithm import ABLATIONS
-from cabinbench.baselines.ppo_gail.training import TrainConfig, TrainingLog, build_runner
+from cabinbench.baselines.ppo_gail.training.config import TrainConfig
+from cabinbench.baselines.ppo_gail.training.loop import build_runner
+from cabinbench.baselines.ppo_gail.training.metrics import TrainingLog
 
 VARIANTS = {
     **{ablation: {"ablation": ablation} for ablation in ABLATIONS},

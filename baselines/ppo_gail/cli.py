@@ -54,9 +54,13 @@ directory ``<name>__seed<S>`` in the folder ``--run-dir`` (default ``runs/train`
 An interrupted sweep continues with the same command and ``--resume``: each unfinished seed resumes from its
 latest checkpoint, a finished one is only exported again.
 
+A run directory is locked while a process trains in it: a second ``train`` there is refused, changing
+nothing. The options are generated from ``TrainConfig``'s fields (``options.option``) and ``TrainCommand``'s;
+what differs between baselines is their ``trainers.Trainer``.
+
 Exit status: 0 done (every seed); 1 a seed's worker died; 2 bad arguments (an unknown baseline: the valid
-ones are printed) or a run directory that cannot be used as asked; 130 interrupted by Ctrl-C (finished
-checkpoints are kept; resume with ``--resume``).
+ones are printed) or a run directory that cannot be used as asked (one being trained by another process);
+130 interrupted by Ctrl-C (finished checkpoints are kept; resume with ``--resume``).
 """
 
 from __future__ import annotations
@@ -64,249 +68,118 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import shutil
 import sys
+from dataclasses import dataclass, fields
 from pathlib import Path
 
+from cabinbench.baselines.ppo_gail.options import add_options, flag, option, option_fields
+from cabinbench.baselines.ppo_gail.study import STAGES
+from cabinbench.baselines.ppo_gail.trainers import TRAINERS, Trainer, keep
+from cabinbench.baselines.ppo_gail.training.config import CONFIG_FILE, TrainConfig, default_run_dir
+
 from cabinbench.cli import ArgumentParser, output_folder
-from cabinbench.errors import UsageError
+from cabinbench.errors import EXIT_INTERRUPTED, EXIT_USAGE, UsageError, UserError
 from cabinbench.executors import EXECUTOR_NAMES, executors
 from cabinbench.executors.base import JobFailure
-from cabinbench.sim.rewards import REWARD_PRESETS
 
-EXIT_USAGE, EXIT_INTERRUPTED = 2, 130
-ABLATION_NAMES = ("ppo_gail", "ppo", "ppo_icm", "ppo_gail_only")  # = ...ppo_gail.algorithm.ABLATIONS
-STUDY_NAME = "ppo_gail_study"  # two networks, one per --stage (cabinbench.baselines.ppo_gail.study)
-TEAM_NAME = "ppo_gail_team"  # one policy shared by a team (cabinbench.baselines.ppo_gail.team_training)
-TEAM_OPTIONS = ("n_agents", "centralised_critic", "team_weight", "init_policy")  # TeamTrainConfig's own
-TRAINABLE = (*ABLATION_NAMES, STUDY_NAME, TEAM_NAME)
-TRAINING_RECORDS = Path("results/training")  # what --ship and --keep keep of a run
 SHIP_DIR = Path("baselines/ppo_gail/checkpoints")  # the repository's, never the installed package's
+CONFIG_CLASSES = list(dict.fromkeys(trainer.config_class for trainer in TRAINERS.values()))
+"""The config classes of the trainers, ``TrainConfig`` first: their option fields are the config's options."""
+
+
+@dataclass
+class TrainCommand:
+    """The options of the train command that are not the run's config: what to train, and what to do with
+    the run. Declared as fields, like the config's, so that ``parse_args`` generates their options alike."""
+
+    baselines: list[str] = option(flag="--baseline", metavar="NAME", required=True)
+    """The learned baseline to train (with --seeds, several: one sweep of them all)."""
+    stage: str | None = option(None, choices=STAGES)
+    """Which network of ppo_gail_study to train (required for it, and only for it)."""
+    run_dir: Path | None = option(None, parse=output_folder)
+    """Run directory (default runs/train/<baseline>__seed<S>); with --seeds: the folder of their runs."""
+    resume: bool = option(False)
+    """Continue the run in --run-dir from its latest checkpoint, as it would have gone on."""
+    ship: bool = option(False)
+    """Copy the exported policy to --ship-dir, where run --baseline finds it."""
+    ship_dir: Path = option(SHIP_DIR)
+    """Where --ship puts the policy: the repository's baselines/ppo_gail/checkpoints (run from its root)."""
+    keep: bool = option(False)
+    """Copy the policy and training records to results/training/<baseline>/seed<S>/ (results/ablation.md)."""
+    export_latest: bool = option(False)
+    """Do not train: export the run's latest checkpoint as its policy.pt (then --ship or --keep it)."""
+    no_progress: bool = option(False)
+    """No progress bar."""
+    seeds: list[int] | None = option(None, metavar="S")
+    """Train one run per seed at once (instead of --seed)."""
+    executor: str = option("local", choices=EXECUTOR_NAMES)
+    """With --seeds: local processes or Ray tasks."""
+    address: str | None = option(None)
+    """With --executor ray: the cluster ('auto' or HOST:PORT; default local)."""
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    """The command's options: ``TrainCommand``'s, and the config's (None where not given: the config's
+    default, or a resumed run's saved value, applies)."""
     parser = ArgumentParser(
         prog="python -m cabinbench.train",
         description="Train PPO + curiosity + GAIL (or an ablation) with rsl-rl.",
     )
-    parser.add_argument(
-        "--baseline",
-        required=True,
-        nargs="+",
-        dest="baselines",
-        metavar="NAME",
-        help=f"one of {', '.join(TRAINABLE)} (with --seeds, several: one sweep of them all)",
-    )
-    parser.add_argument(
-        "--stage",
-        choices=("cleaning", "tracking"),
-        help=f"which network of {STUDY_NAME} to train (required for it, and only for it)",
-    )
-    parser.add_argument(
-        "--layout",
-        action="append",
-        dest="layouts",
-        metavar="NAME",
-        help="training layout (repeat for several; default a320_cell and a320_tracking_cell)",
-    )
-    parser.add_argument(
-        "--suite",
-        metavar="NAME",
-        help="train on a suite (a new layout of it at every reset) instead of --layout",
-    )
-    parser.add_argument(
-        "--demo-layouts", type=int, metavar="N", help="with --suite: suite layouts the expert demonstrates"
-    )
-    parser.add_argument("--iterations", type=int, help="total training iterations")
-    parser.add_argument("--num-envs", type=int, help="parallel envs")
-    parser.add_argument(
-        "--steps-per-env", type=int, dest="num_steps_per_env", help="rollout steps per env and iteration"
-    )
-    parser.add_argument("--seed", type=int, help="seed (default 0)")
-    parser.add_argument("--reward", choices=REWARD_PRESETS, help="reward preset of the training envs")
-    parser.add_argument("--max-steps", type=int, help="episode step limit (default: each layout's)")
-    parser.add_argument("--threads", type=int, help="torch threads")
-    parser.add_argument(
-        "--workers",
-        type=int,
-        metavar="N",
-        help="cores the training uses (default 0: every core; a seed of --seeds: 1); results do not change",
-    )
-    parser.add_argument("--save-interval", type=int, help="checkpoint every N iterations")
-    parser.add_argument(
-        "--validation-episodes",
-        type=int,
-        metavar="N",
-        help="episodes per training layout on which every checkpoint is validated (0: none)",
-    )
-    parser.add_argument(
-        "--export", choices=("last", "best"), help="export the last checkpoint or the best validated"
-    )
-    parser.add_argument(
-        "--algorithm",
-        type=json.loads,
-        metavar="JSON",
-        help='further algorithm settings, e.g. \'{"gail_strength": 0.1, "entropy_coef": 0.02}\'',
-    )
-    parser.add_argument("--min-action-std", type=float, help="lower clamp of the policy's action std")
-    parser.add_argument(
-        "--coverage-patch",
-        type=int,
-        metavar="N",
-        help="observe an N x N coverage patch (0: lidar and velocity only)",
-    )
-    parser.add_argument(
-        "--coverage-patch-cell", type=float, metavar="M", help="size of a coverage patch cell in metres"
-    )
-    parser.add_argument(
-        "--random-start",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="start each training episode at a random pose of the start cell",
-    )
-    parser.add_argument(
-        "--terminate-on-bound",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="end episodes on a bound contact",
-    )
-    parser.add_argument(
-        "--demonstrations", nargs="+", metavar="FILE", help="expert .npz files instead of recording"
-    )
-    parser.add_argument("--demo-episodes", type=int, metavar="N", help="expert episodes per training layout")
-    parser.add_argument(
-        "--demo-action-noise",
-        type=float,
-        metavar="STD",
-        help="Gaussian noise on the expert's executed actions while recording (0: none)",
-    )
-    team = parser.add_argument_group(f"{TEAM_NAME} only")
-    team.add_argument(
-        "--agents", type=int, dest="n_agents", metavar="K", help="robots per team env (default 2)"
-    )
-    team.add_argument(
-        "--centralised-critic",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="the critic also sees the team env's state() (default: yes)",
-    )
-    team.add_argument(
-        "--team-weight", type=float, help="weight of the team's new area in each robot's reward"
-    )
-    team.add_argument(
-        "--init-policy",
-        metavar="FILE|NAME",
-        help='policy file (or shipped name) the actor starts from (default ppo_gail; "" : random weights)',
-    )
-    parser.add_argument(
-        "--run-dir",
-        type=output_folder,
-        help="run directory (default runs/train/<baseline>__seed<S>); with --seeds: the folder of their runs",
-    )
-    parser.add_argument(
-        "--resume", action="store_true", help="continue the run in --run-dir from its latest checkpoint"
-    )
-    parser.add_argument("--ship", action="store_true", help="copy the exported policy to --ship-dir")
-    parser.add_argument(
-        "--ship-dir",
-        type=Path,
-        default=SHIP_DIR,
-        help=f"where --ship puts the policy (default {SHIP_DIR}, relative to the repository root)",
-    )
-    parser.add_argument(
-        "--keep",
-        action="store_true",
-        help="copy the policy and training records to results/training/<baseline>/seed<S>/ "
-        "(results/ablation.md)",
-    )
-    parser.add_argument(
-        "--export-latest",
-        action="store_true",
-        help="do not train: export the run's latest checkpoint as its policy.pt (then --ship or --keep it)",
-    )
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
-    parser.add_argument(
-        "--seeds", type=int, nargs="+", metavar="S", help="train one run per seed at once (instead of --seed)"
-    )
-    parser.add_argument(
-        "--executor",
-        choices=EXECUTOR_NAMES,
-        default="local",
-        help="with --seeds: local processes or Ray tasks",
-    )
-    parser.add_argument(
-        "--address", help="with --executor ray: the cluster ('auto' or HOST:PORT; default local)"
-    )
+    add_options(parser, TrainCommand, unset=False)
+    add_options(parser, TrainConfig)
+    common = {field.name for field in option_fields(TrainConfig)}
+    for config_class in CONFIG_CLASSES[1:]:
+        own = [field.name for field in option_fields(config_class) if field.name not in common]
+        users = [name for name, trainer in TRAINERS.items() if trainer.config_class is config_class]
+        add_options(parser.add_argument_group(f"{', '.join(users)} only"), config_class, own)
     args = parser.parse_args(argv)
-    if args.algorithm is not None and not isinstance(args.algorithm, dict):
-        parser.error("--algorithm must be a JSON object")
     args.baseline = args.baselines[0]  # a single run's; a sweep sets each run's own
     return args
 
 
-def build_config(args: argparse.Namespace):
-    """The ``TrainConfig``: the saved one when resuming (else the defaults), overridden by the options
-    given."""
-    from cabinbench.baselines.ppo_gail.training import CONFIG_FILE, TrainConfig, default_run_dir
-
-    given = {
-        name: getattr(args, name)
-        for name in (
-            "layouts",
-            "suite",
-            "demo_layouts",
-            "iterations",
-            "num_envs",
-            "num_steps_per_env",
-            "seed",
-            "reward",
-            "terminate_on_bound",
-            "max_steps",
-            "algorithm",
-            "min_action_std",
-            "coverage_patch",
-            "coverage_patch_cell",
-            "random_start",
-            "threads",
-            "workers",
-            "save_interval",
-            "validation_episodes",
-            "export",
-            "demonstrations",
-            "demo_episodes",
-            "demo_action_noise",
+def trainer_of(args: argparse.Namespace) -> Trainer:
+    """The trainer of ``args.baseline``, checked against the options given."""
+    trainer = TRAINERS.get(args.baseline)
+    if trainer is None:
+        raise UsageError(
+            f"cannot train baseline {args.baseline!r}; trainable baselines: {', '.join(TRAINERS)}"
         )
-        if getattr(args, name) is not None
-    }
-    team_given = {name: getattr(args, name) for name in TEAM_OPTIONS if getattr(args, name) is not None}
-    if team_given and args.baseline != TEAM_NAME:
-        raise ValueError(
-            f"--agents, --centralised-critic, --team-weight and --init-policy are for {TEAM_NAME}"
+    if bool(trainer.stages) != (args.stage is not None):
+        studies = [name for name, other in TRAINERS.items() if other.stages]
+        raise UsageError(
+            f"--stage {'|'.join(STAGES)} is for --baseline {', '.join(studies)}, and it needs one"
         )
-    if args.baseline == STUDY_NAME:
-        from cabinbench.baselines.ppo_gail.study import study_config
+    if args.suite and (args.layouts or not trainer.trains_on_suites):
+        on_suites = [name for name, other in TRAINERS.items() if other.trains_on_suites]
+        raise UsageError(f"--suite trains {', '.join(on_suites)} on a suite instead of --layout")
+    return trainer
 
-        config = study_config(args.stage, **given)
-    elif args.baseline == TEAM_NAME:
-        from cabinbench.baselines.ppo_gail.team_training import TeamTrainConfig
 
-        given |= team_given
-        config = TeamTrainConfig(**given)
-    else:
-        config = TrainConfig(ablation=args.baseline, **given)
-    run_dir = Path(args.run_dir) if args.run_dir else default_run_dir(config, name=policy_name(args))
+def build_config(args: argparse.Namespace) -> tuple[TrainConfig, Path]:
+    """The run's config and directory: the trainer's config of the options given, or when resuming (or
+    exporting) the saved one with those options over it."""
+    trainer = TRAINERS[args.baseline]
+    options = {field.name: field for config_class in CONFIG_CLASSES for field in option_fields(config_class)}
+    given = {name: getattr(args, name) for name in options if getattr(args, name) is not None}
+    accepted = {field.name for field in fields(trainer.config_class)}
+    foreign = [name for name in given if name not in accepted]
+    if foreign:
+        users = [
+            name for name, other in TRAINERS.items() if foreign[0] in other.config_class.__dataclass_fields__
+        ]
+        flags = ", ".join(flag(options[name]) for name in foreign)
+        raise UsageError(f"{flags}: only for {', '.join(users)}, not {args.baseline}")
+    config = trainer.config(args.baseline, args.stage, given)
+    run_dir = Path(args.run_dir) if args.run_dir else default_run_dir(config, name=shipped_name(args))
     saved_path = run_dir / CONFIG_FILE
     if (args.resume or args.export_latest) and saved_path.exists():
         config = type(config).from_dict({**json.loads(saved_path.read_text()), **given})
     return config, run_dir
 
 
-def policy_name(args: argparse.Namespace) -> str:
-    """What a run's policy ships as: the baseline, ``<baseline>_suite`` when trained on a suite, or for the
-    study's networks ``ppo_gail_study_<stage>``."""
-    if args.baseline == STUDY_NAME:
-        return f"{STUDY_NAME}_{args.stage}"
-    return f"{args.baseline}_suite" if args.suite else args.baseline
+def shipped_name(args: argparse.Namespace) -> str:
+    """What a run's policy ships as (``Trainer.shipped_name``)."""
+    return TRAINERS[args.baseline].shipped_name(args.baseline, args.stage, args.suite)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -323,48 +196,47 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def train_one(args: argparse.Namespace) -> int:
-    """Train the run of ``args`` (one seed); the exit status."""
-    if args.baseline not in TRAINABLE:
-        print(
-            f"error: cannot train baseline {args.baseline!r}; trainable baselines: {', '.join(TRAINABLE)}",
-            file=sys.stderr,
-        )
+    """Train the run of ``args`` (one seed); the exit status. Ctrl-C, at any moment, is one line."""
+    try:
+        trainer = trainer_of(args)
+        if args.ship and not args.ship_dir.is_dir():
+            raise UsageError(
+                f"--ship-dir {args.ship_dir} is not a folder; "
+                "run from the repository root or give --ship-dir DIR"
+            )
+        config, run_dir = checked_config(args)
+    except UserError as error:
+        print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
-    if (args.baseline == STUDY_NAME) != (args.stage is not None):
-        print(
-            f"error: --stage cleaning|tracking is for --baseline {STUDY_NAME}, and it needs one",
-            file=sys.stderr,
-        )
-        return EXIT_USAGE
-    if args.ship and not args.ship_dir.is_dir():
-        print(
-            f"error: --ship-dir {args.ship_dir} is not a folder; "
-            "run from the repository root or give --ship-dir DIR",
-            file=sys.stderr,
-        )
-        return EXIT_USAGE
-    os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
-    from cabinbench.baselines.ppo_gail.training import export_latest, train
+    try:
+        return train_checked(args, trainer, config, run_dir)
+    except KeyboardInterrupt:
+        return interrupted(run_dir)
 
-    from cabinbench.errors import LayoutError
+
+def checked_config(args: argparse.Namespace) -> tuple[TrainConfig, Path]:
+    """``build_config``, every mistake in it a ``UsageError``, its layouts loaded (a bad one names the valid
+    ones) before any work starts."""
     from cabinbench.layouts.resolve import load_layout
 
     try:
-        if args.suite and (args.layouts or args.baseline not in ABLATION_NAMES):
-            raise ValueError(f"--suite trains {', '.join(ABLATION_NAMES)} on a suite instead of --layout")
         config, run_dir = build_config(args)
         if args.demo_layouts is not None and not config.suite:
-            raise ValueError("--demo-layouts goes with --suite: the expert demonstrates every --layout")
+            raise UsageError("--demo-layouts goes with --suite: the expert demonstrates every --layout")
         for layout in config.layouts:
             load_layout(layout)
-    except LayoutError as error:
-        print(f"error: {error}", file=sys.stderr)  # it names the valid layouts
-        return EXIT_USAGE
+    except UserError:
+        raise
     except (ValueError, TypeError) as error:
-        print(f"error: {error}", file=sys.stderr)
-        return EXIT_USAGE
+        raise UsageError(str(error)) from None
+    return config, run_dir
 
-    name = policy_name(args)
+
+def train_checked(args: argparse.Namespace, trainer: Trainer, config: TrainConfig, run_dir: Path) -> int:
+    """Train (or export) the run of a checked config, then ship or keep it as asked; the exit status."""
+    from cabinbench.baselines.ppo_gail.training.loop import export_latest, train
+
+    name = shipped_name(args)
     print(
         f"{'exporting' if args.export_latest else 'training'} {name} on {config.trained_on}: "
         f"{config.iterations} iterations x {config.num_envs} envs x {config.num_steps_per_env} steps; "
@@ -376,15 +248,11 @@ def train_one(args: argparse.Namespace) -> int:
             result = export_latest(config, run_dir)
         else:
             result = train(config, run_dir, resume=args.resume, progress=not args.no_progress)
-    except (FileExistsError, FileNotFoundError, ValueError) as error:
+    except (UserError, FileExistsError, FileNotFoundError, ValueError) as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
-    except KeyboardInterrupt:  # before the first iteration (recording demonstrations, building the runner)
-        print("interrupted before training started", file=sys.stderr)
-        return EXIT_INTERRUPTED
     if result.interrupted:
-        return EXIT_INTERRUPTED
-
+        return interrupted(run_dir)
     summary = result.summary
     print(
         f"done: {result.iterations} of {config.iterations} iterations, {summary['timesteps']} steps, "
@@ -399,35 +267,27 @@ def train_one(args: argparse.Namespace) -> int:
     if config.validation_episodes:
         print(f"validation of every checkpoint: {result.run_dir / 'validation.csv'}")
     if args.ship:
-        shipped = args.ship_dir / f"{name}.pt"
-        copy_file(result.policy_path, shipped)
-        if args.baseline == STUDY_NAME:  # its networks are no ablation: their records stay beside them
-            copy_file(result.run_dir / "config.json", args.ship_dir / f"{name}.config.json")
-            reached = args.ship_dir / f"{name}.training.json"  # how far it trained: steps, time, metrics
-            reached.write_text(json.dumps(summary, indent=2) + "\n")
-            print(f"shipped: {shipped}, its config and {reached.name}")
-        else:
-            records = TRAINING_RECORDS / name
-            for record in training_records(config):
-                copy_file(result.run_dir / record, records / record)
-            print(f"shipped: {shipped}; training records: {records}")
+        print(trainer.ship(result, name, args.ship_dir, config))
     if args.keep:
-        kept = TRAINING_RECORDS / name / f"seed{config.seed}"
-        for name in ("policy.pt", *training_records(config)):
-            copy_file(result.run_dir / name, kept / name)
-        print(f"kept: {kept} (score it with the loop in results/make_results.sh)")
+        print(f"kept: {keep(result, name, config)} (score it with the loop in results/make_results.sh)")
     return 0
+
+
+def interrupted(run_dir: Path) -> int:
+    """Say what Ctrl-C left, in one line; the exit status."""
+    print(f"interrupted: finished checkpoints are kept in {run_dir}; continue with --resume", file=sys.stderr)
+    return EXIT_INTERRUPTED
 
 
 def sweep(args: argparse.Namespace) -> int:
     """Train every seed of ``--seeds`` of every ``--baseline`` with the executor of ``--executor``; the worst
     exit status."""
     several = len(set(args.seeds)) > 1
-    untrainable = [name for name in args.baselines if name not in TRAINABLE]
+    untrainable = [name for name in args.baselines if name not in TRAINERS]
     refused = [
         (args.seed is not None, "--seed: give the seeds with --seeds alone"),
         (several and args.ship, "--ship: seeds would overwrite each other's shipped policy; ship one seed"),
-        (untrainable, f"--baseline {' '.join(untrainable)}: trainable baselines: {', '.join(TRAINABLE)}"),
+        (untrainable, f"--baseline {' '.join(untrainable)}: trainable baselines: {', '.join(TRAINERS)}"),
         (
             args.executor == "local" and args.address is not None,
             "--address: only --executor ray runs on a cluster",
@@ -455,7 +315,7 @@ def sweep(args: argparse.Namespace) -> int:
                 }
             )
             if args.run_dir:
-                job.run_dir = str(Path(args.run_dir) / f"{policy_name(job)}__seed{seed}")
+                job.run_dir = str(Path(args.run_dir) / f"{shipped_name(job)}__seed{seed}")
             jobs.append(job)
     try:
         executor = executors()[args.executor](
@@ -503,7 +363,7 @@ def run_dir(args: argparse.Namespace) -> Path:
     return (
         Path(args.run_dir)
         if args.run_dir
-        else default_run_dir(TrainConfig(seed=args.seed), name=policy_name(args))
+        else default_run_dir(TrainConfig(seed=args.seed), name=shipped_name(args))
     )
 
 
@@ -519,19 +379,6 @@ def bench_iteration(iterations: int = 3, warmup: int = 1) -> dict[str, dict[str,
     from cabinbench.baselines.ppo_gail.bench import bench_iteration as measure
 
     return measure(iterations, warmup)
-
-
-def training_records(config) -> tuple[str, ...]:
-    """The files of a run that ``--ship`` and ``--keep`` keep beside its policy."""
-    return ("config.json", "metrics.csv", *(("validation.csv",) if config.validation_episodes else ()))
-
-
-def copy_file(source: Path, target: Path) -> None:
-    """Copy atomically: a reader never sees a half-written file."""
-    target.parent.mkdir(parents=True, exist_ok=True)
-    temporary = target.with_name(target.name + ".tmp")
-    shutil.copyfile(source, temporary)
-    os.replace(temporary, target)
 
 
 if __name__ == "__main__":

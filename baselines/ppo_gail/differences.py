@@ -19,13 +19,13 @@ from dataclasses import dataclass
 
 from cabinbench.baselines.ppo_gail.algorithm import STUDY_PPO, PPOCuriosityGail
 from cabinbench.baselines.ppo_gail.study import STAGES, STUDY, study_config
-from cabinbench.baselines.ppo_gail.training import TrainConfig
+from cabinbench.baselines.ppo_gail.training.config import TrainConfig
 
 from cabinbench.cli import ArgumentParser, output_file, user_errors
-from cabinbench.envs.coverage_env import CoverageEnv
+from cabinbench.envs.settings import EnvSettings
 from cabinbench.sim.observation import LIDAR_CHANNELS
 
-N_RAYS = inspect.signature(CoverageEnv).parameters["n_rays"].default  # the lidar every variant trains with
+N_RAYS = EnvSettings.n_rays  # the lidar every variant trains with
 DEFAULT_OUT = "results/differences.md"
 
 

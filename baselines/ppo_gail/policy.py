@@ -6,7 +6,7 @@ Each baseline loads its policy file (default ``baselines/ppo_gail/checkpoints/<a
 once, checks that it was trained on observations shaped like the env's, and samples its actions from the
 trained Gaussian policy (mean + action_std * noise, clipped to [-1, 1]), with a generator seeded by the
 episode seed and the robot's index, so episodes stay reproducible. Sampling is the default, as in ML-Agents'
-inference that the seed used: a memoryless policy acting deterministically in a deterministic env can loop
+inference that the study used: a memoryless policy acting deterministically in a deterministic env can loop
 forever in the same place (docs/experiments.md, "Sampled or mean actions"). ``stochastic=False`` takes the
 mean action.
 
@@ -34,9 +34,11 @@ rsl-rl's inference policy exactly (tested).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import pickle
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -298,9 +300,6 @@ class LearnedPolicy(Baseline):
         from cabinbench.envs.coverage_env import observation_config
 
         super().reset(context, observation, info)
-        # One observation at a time: torch's intra-op threads only add overhead, and on a busy
-        # 2-core machine they turned a 0.3 ms forward pass into 14 ms.
-        torch.set_num_threads(1)
         env_config = observation_config(context.env_config, np.asarray(observation).shape[-1])
         check_observation_config(self.policy["observation_config"], env_config, self.path)
         if self.stochastic:
@@ -308,7 +307,7 @@ class LearnedPolicy(Baseline):
             self.action_std = self.policy["action_std"].numpy().astype(np.float64)
 
     def act(self, observation: np.ndarray, info: dict) -> np.ndarray:
-        with torch.no_grad():
+        with torch.no_grad(), one_torch_thread():
             mean = self.policy["network"](torch.as_tensor(observation, dtype=torch.float32).reshape(1, -1))
         action = mean[0].numpy().astype(np.float64)
         if self.stochastic:
@@ -326,7 +325,7 @@ class PPOGail(LearnedPolicy):
 
 class PPOGailSuite(PPOGail):
     """Our ppo_gail trained on the suite ``cabin-v1-train`` through ``CabinBench/Suite-v0`` (a new layout at
-    every reset) instead of on the seed's two cells: ``python -m cabinbench.train --baseline ppo_gail
+    every reset) instead of on the study's two cells: ``python -m cabinbench.train --baseline ppo_gail
     --suite cabin-v1-train`` (``results/train_suite_policies.sh``). Its policy files record the suite they
     trained on."""
 
@@ -420,6 +419,22 @@ class PPOGailStudy(Baseline):
     def act(self, observation: np.ndarray, info: dict) -> np.ndarray:
         self.stage = tracking_or_cleaning(self.context, info)
         return self.networks[self.stage].act(observation, info)
+
+
+@contextlib.contextmanager
+def one_torch_thread() -> Iterator[None]:
+    """torch on one thread inside, the process's own setting again after. For one observation at a time:
+    torch's intra-op threads only add overhead, and on a busy 2-core machine they turned a 0.3 ms forward
+    pass into 14 ms."""
+    threads = torch.get_num_threads()
+    if threads == 1:
+        yield
+        return
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(threads)
 
 
 def tracking_or_cleaning(context: EpisodeContext, info: dict) -> str:

@@ -22,7 +22,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from cabinbench.baselines.ppo_gail.training import TrainConfig
+from cabinbench.baselines.ppo_gail.training.config import TrainConfig
 
 STAGES = ("cleaning", "tracking")
 

@@ -34,7 +34,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import torch
-from cabinbench.baselines.ppo_gail.training import TrainConfig
+from cabinbench.baselines.ppo_gail.options import option
+from cabinbench.baselines.ppo_gail.training.config import TrainConfig
 
 TEAM_POLICY = "ppo_gail_team"
 
@@ -46,7 +47,7 @@ class TeamTrainConfig(TrainConfig):
 
     layouts: list[str] = field(default_factory=lambda: ["full_cabin"])
     """Training layouts, round-robin over the team envs: the whole cabin, where teams are scored."""
-    n_agents: int = 2
+    n_agents: int = option(2, flag="--agents", metavar="K")
     """Robots per team env (K)."""
     num_envs: int = 8
     """Team envs; rsl-rl's batch has ``num_envs * n_agents`` rows (16 robots with the defaults)."""
@@ -61,12 +62,12 @@ class TeamTrainConfig(TrainConfig):
     validation_episodes: int = 2
     """Team episodes per training layout and checkpoint at the end of training (a ``full_cabin`` team episode
     takes about a minute on a CPU)."""
-    centralised_critic: bool = True
+    centralised_critic: bool = option(True)
     """The critic also sees the team env's ``state()`` and the robot's index (MAPPO); False: it sees what the
     actor sees (independent PPO with a shared policy)."""
-    team_weight: float = 0.5
+    team_weight: float = option(0.5)
     """Weight of the team's new area in each robot's ``coverage`` reward (the team env's default)."""
-    init_policy: str = "ppo_gail"
+    init_policy: str = option("ppo_gail", metavar="FILE|NAME")
     """A policy file, or the name of a shipped one (``baselines/ppo_gail/checkpoints/<name>.pt``), whose
     actor the team policy starts from; "" starts from random weights."""
 

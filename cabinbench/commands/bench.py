@@ -231,8 +231,7 @@ def bench_suite_load(suite: str) -> float:
     return time.perf_counter() - started
 
 
-@user_errors
-def main(argv: list[str] | None = None) -> int:
+def parse_args(argv: list[str] | None):
     parser = ArgumentParser(
         prog="python -m cabinbench.bench", description="Env throughput, beside peer envs."
     )
@@ -245,8 +244,11 @@ def main(argv: list[str] | None = None) -> int:
         help="timed training iterations per learned baseline, after one warm-up (0: none)",
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
-    args = parser.parse_args(argv)
-    cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else [0]
+    return parser.parse_args(argv)
+
+
+def measure_envs(args, cores: list[int]) -> dict:
+    """Every figure but training's: the batched env on all ``cores``, the rest on the first alone."""
     batched_steps = max(10, args.steps // args.num_envs)
     all_cores = bench_batched("a320_cell", args.num_envs, batched_steps, num_workers=len(cores))
     if hasattr(os, "sched_setaffinity"):
@@ -274,30 +276,41 @@ def main(argv: list[str] | None = None) -> int:
     }
     if hasattr(os, "sched_setaffinity"):
         os.sched_setaffinity(0, set(cores))  # training uses every core (env workers, shaping threads)
-    training = bench_training(args.training_iterations)
+    return results
+
+
+def add_training(results: dict, iterations: int) -> None:
+    """Seconds per training iteration of every learned baseline, and each one's ratio to PPO's."""
+    training = bench_training(iterations)
     for baseline, seconds in training.items():
         for part, value in seconds.items():
             results[f"train_{baseline}_{part}_s_per_iteration"] = value
     if "ppo" in training:  # what curiosity and imitation add to PPO's iteration, measured in this run
         for baseline, seconds in training.items():
             results[f"ratio_train_{baseline}_to_ppo"] = seconds["total"] / training["ppo"]["total"]
+
+
+def add_ratios(results: dict, workers: int) -> None:
+    """What batching buys per core, what the other cores add, and our single env against the peers."""
     one_core = results["batched_a320_cell_agent_steps_per_s_one_core"]
-    if one_core:  # what batching buys per core, and what the other cores add
+    if one_core:
         results["ratio_batched_one_core_to_single"] = one_core / results["single_a320_cell_steps_per_s"]
-        results[f"ratio_batched_{len(cores)}_workers_to_one"] = all_cores / one_core
+        all_cores = results[f"batched_a320_cell_agent_steps_per_s_{workers}_workers"]
+        results[f"ratio_batched_{workers}_workers_to_one"] = all_cores / one_core
     cartpole = results["peer_cartpole_steps_per_s"]
     pistonball = results["peer_pistonball_agent_steps_per_s"]
     results["ratio_a320_cell_to_cartpole"] = results["single_a320_cell_steps_per_s"] / cartpole
     if pistonball:
         results["ratio_a320_cell_to_pistonball"] = results["single_a320_cell_steps_per_s"] / pistonball
-    if args.json:
-        print(json.dumps({k: (round(v, 4) if isinstance(v, float) else v) for k, v in results.items()}))
-        return 0
+
+
+def print_table(results: dict, workers: int) -> None:
+    """One line per figure, with its target where it has one."""
     targets = {
         "single_a320_cell_steps_per_s": "target >= 10,000",
-        f"batched_a320_cell_agent_steps_per_s_{len(cores)}_workers": "target >= 50,000 on this machine",
+        f"batched_a320_cell_agent_steps_per_s_{workers}_workers": "target >= 50,000 on this machine",
         "ratio_batched_one_core_to_single": "target >= 3",
-        f"ratio_batched_{len(cores)}_workers_to_one": "target >= 1.8",
+        f"ratio_batched_{workers}_workers_to_one": "target >= 1.8",
         "boustrophedon_plan_full_cabin_s": "target < 1 s",
         "generate_cabin_v1_layout_s": "target <= 0.05 s",
         "generate_cabin_v1_ood_layout_s": "target <= 0.05 s",
@@ -322,4 +335,17 @@ def main(argv: list[str] | None = None) -> int:
         )
         shown = unmeasured if value is None else f"{value:,.4g}" if value < 100 else f"{value:,.0f}"
         print(f"{name:<50} {shown:>16}   {targets.get(name, '')}")
+
+
+@user_errors
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else [0]
+    results = measure_envs(args, cores)
+    add_training(results, args.training_iterations)
+    add_ratios(results, len(cores))
+    if args.json:
+        print(json.dumps({k: (round(v, 4) if isinstance(v, float) else v) for k, v in results.items()}))
+    else:
+        print_table(results, len(cores))
     return 0

@@ -14,10 +14,8 @@ import importlib
 import sys
 
 from cabinbench.agents import baseline_class, registered_baselines
-from cabinbench.cli import ArgumentParser
-from cabinbench.errors import BaselineError
-
-EXIT_USAGE = 2
+from cabinbench.cli import ArgumentParser, user_errors
+from cabinbench.errors import EXIT_USAGE, BaselineError
 
 
 def trainable_baselines() -> list[str]:
@@ -32,6 +30,7 @@ def trainable_baselines() -> list[str]:
     return names
 
 
+@user_errors  # a Ctrl-C before the trainer handles it (while torch loads): one line too
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = ArgumentParser(

@@ -6,7 +6,8 @@ The env of :mod:`cabinbench.envs.coverage_env`, except that each reset draws one
 suite (:mod:`cabinbench.suites`) from the reset's seeded generator, so that a learner trains on a
 family of cabins rather than on one map (Procgen's ``num_levels`` idea: ``num_layouts`` keeps
 only the first N layouts). Made by ``gymnasium.make("CabinBench/Suite-v0", suite="cabin-v1-train")``.
-The layout in play is ``env.unwrapped.layout``; the reset's info names it (``layout``).
+The layout in play is ``env.unwrapped.layout``; every info names it (``layout``, a numpy string).
+:class:`TeamSuiteEnv` is the same for a team of K robots (PettingZoo), the core this env wraps.
 
 ## Action Space
 
@@ -36,25 +37,37 @@ As in ``CoverageEnv``; the step limit is ``max_steps`` or, by default, the drawn
 ## Arguments
 
 ``suite`` (a suite name, default ``"cabin-v1-train"``), ``num_layouts`` (default: all), and every
-argument of ``CoverageEnv`` but ``layout``; ``random_start`` defaults to ``True``.
+argument of ``CoverageEnv`` but ``layout`` (the settings of :class:`~cabinbench.envs.settings.EnvSettings`);
+``random_start`` defaults to ``True``.
 """
 
 from __future__ import annotations
 
-import gymnasium as gym
+import numpy as np
 
-from cabinbench.envs.coverage_env import CoverageEnv
+from cabinbench.envs.coverage_env import CoreAttribute, CoverageEnv
+from cabinbench.envs.settings import EnvSettings
+from cabinbench.envs.team_env import TeamCoverageEnv
 from cabinbench.layouts.suites import get_suite
 from cabinbench.values import is_whole_number
 
+SUITE_SETTINGS = EnvSettings(random_start=True)
+"""The settings a suite env starts from: random starts, the evaluation protocol of the suites."""
 
-class SuiteEnv(CoverageEnv):
+
+class TeamSuiteEnv(TeamCoverageEnv):
+    """The team env on a suite: each reset draws one of the suite's first ``num_layouts`` layouts
+    from the reset's generator, before the start poses. Settings not given are
+    :data:`SUITE_SETTINGS`'s (``random_start``). ``state_space`` is the first layout's (its
+    size grows with the layout's goal markers: a centralised critic needs one layout family)."""
+
     def __init__(
         self,
         suite: str = "cabin-v1-train",
         num_layouts: int | None = None,
-        random_start: bool = True,
-        **kwargs,
+        n_agents: int = 1,
+        settings: EnvSettings | None = None,
+        **overrides,
     ):
         self.suite = get_suite(suite)
         names = self.suite.layout_names
@@ -65,12 +78,29 @@ class SuiteEnv(CoverageEnv):
                 )
             names = names[:num_layouts]
         self.layout_names = names
-        super().__init__(self.suite.layout(names[0]), random_start=random_start, **kwargs)
+        super().__init__(self.suite.layout(names[0]), n_agents, settings or SUITE_SETTINGS, **overrides)
 
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
-        gym.Env.reset(self, seed=seed)  # seeds the generator that draws the layout, then the start
+    def begin_episode(self, seed: int | None = None) -> None:
+        self.seed_generator(seed)  # the layout is drawn first, then the start poses
         name = self.layout_names[int(self.np_random.integers(len(self.layout_names)))]
         if name != self.layout.name:
             self.use_layout(self.suite.layout(name))
-        observation, info = super().reset(options=options)
-        return observation, {**info, "layout": name}
+        super().begin_episode()
+
+    def agent_infos(self) -> dict:
+        name = np.str_(self.layout.name)
+        return {agent: {**info, "layout": name} for agent, info in super().agent_infos().items()}
+
+
+class SuiteEnv(CoverageEnv):
+    def __init__(
+        self,
+        suite: str = "cabin-v1-train",
+        num_layouts: int | None = None,
+        settings: EnvSettings | None = None,
+        **overrides,
+    ):
+        self._wrap(TeamSuiteEnv(suite, num_layouts, 1, settings, **overrides))
+
+    suite = CoreAttribute()
+    layout_names = CoreAttribute()

@@ -1,10 +1,12 @@
-"""Multi-robot coverage env (PettingZoo ``ParallelEnv``).
+"""Multi-robot coverage env (PettingZoo ``ParallelEnv``): the one env core.
 
-K disc robots clean one airline-cabin layout together: one pymunk space, one shared coverage
-raster. Each robot sees only its own lidar and velocity, exactly as in the single-robot env
-(:mod:`cabinbench.envs.coverage_env`); the other robots show up in its lidar with the tag
-``robot``. ``state()`` gives a global view for centralised critics. Create it with
-``cabinbench.parallel_env(...)``; ``cabinbench.env(...)`` is the same env in AEC form.
+K >= 1 disc robots clean one airline-cabin layout together: one pymunk space, one shared coverage
+raster. Each robot sees only its own lidar and velocity; the other robots show up in its lidar with
+the tag ``robot``. ``state()`` gives a global view for centralised critics. Create it with
+``cabinbench.parallel_env(...)``; ``cabinbench.env(...)`` is the same env in AEC form. The
+Gymnasium env (:mod:`cabinbench.envs.coverage_env`) is this env with one robot, seen through
+Gymnasium's API; the batched training envs (:mod:`cabinbench.envs.batch_engine`) step it directly
+(:meth:`TeamCoverageEnv.advance`).
 
 **Agents**: ``robot_0`` … ``robot_{K-1}``; ``robot_0`` starts at the layout's start pose, the
 others at the nearest free spots of the start cell (deterministic, at least a robot diameter plus
@@ -13,9 +15,9 @@ free spots of the start cell as far apart, uniform headings). Asking for more ro
 start cell holds raises ``ValueError``.
 
 **Action** (per agent): ``Box(-1, 1, (2,), float32)`` = (linear, angular), scaled by the robot's
-``max_speed`` and ``max_turn_rate``. Out-of-range values are clipped; NaN or infinite values
-raise ``ValueError``. An agent whose action is missing from the dict (or ``None``) stands still
-for that step: it does not move, turn or clean, but it still collides and is still rewarded.
+``max_speed`` and ``max_turn_rate``. Out-of-range values are clipped; NaN, infinite or complex
+values raise ``ValueError``. An agent whose action is missing from the dict (or ``None``) stands
+still for that step: it does not move, turn or clean, but it still collides and is still rewarded.
 
 **Observation** (per agent): ``Box(float32, (6 * n_rays + coverage_patch² + 2,))``, the single
 env's observation of that robot, laid out as ``env.observation_layout`` (part name → slice;
@@ -40,11 +42,11 @@ every robot (decentralised execution; :mod:`cabinbench.envs.batched_team` trains
 in agent order: x and y normalised by the layout's extent to [0, 1], cos and sin of the heading,
 forward speed / ``max_speed`` and turn rate / ``max_turn_rate`` (clipped to [-1, 1]). Then the
 team coverage, the fraction of cells cleared, current cell / number of cells, steps /
-``max_cycles``, and one reached flag (0 or 1) per goal marker of the layout.
+``max_steps``, and one reached flag (0 or 1) per goal marker of the layout.
 
 **Reward** (per agent, :func:`cabinbench.sim.rewards.reward` on that robot's events):
 
-- ``paper`` (seed Tables 4.4/4.5, for teams): +0.5 per goal marker this robot reached, -0.3 per
+- ``paper`` (the study's Tables 4.4/4.5, for teams): +0.5 per goal marker this robot reached, -0.3 per
   contact with an obstacle or another robot, -10 per bound contact, -0.01 per step, +2 for
   reaching an exit; on a step in which the team clears a cell every robot's reward is *set* to 3.
 - ``coverage`` (dense): 10 × (this robot's newly covered fraction of the coverable area +
@@ -57,51 +59,59 @@ own terms (its area, its contacts), so each robot is credited for its part of th
 
 **Episode end**: every agent is terminated when the team meets the layout's success criterion
 (``sequential``: every cell cleared; ``open``: coverage ≥ the layout's ``success_coverage``);
-every agent is truncated after ``max_cycles`` steps. Agents are never removed one by one: all
-leave ``agents`` together on the last step, and ``step`` after that raises until ``reset``.
+on a bound contact of any robot if ``terminate_on_bound``, or when any robot reaches an exit
+landmark if ``terminate_on_exit``; every agent is truncated after ``max_steps`` steps. Agents are
+never removed one by one: all leave ``agents`` together on the last step, and ``step`` after that
+raises until ``reset``.
 Each step is 0.1 simulated seconds.
 
 **Info** (per agent): that robot's own ``path_length``, ``collisions`` (obstacle contacts),
 ``robot_collisions`` (contacts with other robots), ``bound_violations`` and ``pose`` = (x, y,
 heading) (for planners, not learners); the team's ``coverage``, ``time``, ``steps``,
-``cells_cleared``, ``current_cell`` and ``success``. The last step's info of every agent carries
-the team's ``episode_record`` (:mod:`cabinbench.metrics`, with the team metrics ``n_agents``,
-``robot_collisions``, ``path_lengths``, ``makespan`` and ``load_balance`` when K > 1; ``None`` for
-a ``t90`` never reached); ``env.episode_record`` holds it too (``None`` until the episode ends).
-With ``record_in_info=False`` the infos leave it out: every step's info then has the reset's keys,
-each a number or an array, as TorchRL's ``PettingZooWrapper`` requires (it converts every info
-value with ``torch.tensor`` into the spec it built from the reset's infos).
+``cells_cleared``, ``current_cell`` and ``success``. Every value is a numpy scalar or array, and
+every step's info has the reset's keys, as clients that build a spec from the reset require
+(TorchRL's ``PettingZooWrapper`` converts every value with ``torch.tensor``; Minari's
+``record_infos`` stacks them). The team's episode record (:mod:`cabinbench.metrics`, with the team
+metrics ``n_agents``, ``robot_collisions``, ``path_lengths``, ``makespan`` and ``load_balance`` when
+K > 1; ``None`` for a ``t90`` never reached) is ``env.episode_record`` once the episode ends
+(``None`` before); with ``record_in_info=True`` the last step's info of every agent also carries it
+as ``episode_record`` (the keys then change on that step).
 
 **Copies**: ``copy.deepcopy`` and pickle give an env that continues exactly as the original.
 
 **Arguments**: ``layout`` (registered name, YAML path or a :class:`~cabinbench.layouts.model.Layout`),
-``n_agents`` (K), ``protocol`` (``"sequential"`` or ``"open"``), ``reward`` (``"paper"`` or
-``"coverage"``), ``n_rays``, ``lidar_range`` (m), ``field_of_view`` (rad), ``lidar_noise`` (m,
-Gaussian; the only randomness, drawn from the reset seed), ``coverage_patch`` (cells per side, 0:
-none) and ``coverage_patch_cell`` (m), ``max_cycles`` (default: the
-layout's ``max_steps``), ``render_mode`` (``"rgb_array"`` or ``"human"``), ``team_weight``,
-``record_in_info``, ``random_start``.
+``n_agents`` (K), and the settings of :class:`~cabinbench.envs.settings.EnvSettings` as keywords
+(or ``settings=EnvSettings(...)``): ``protocol`` (``"sequential"`` or ``"open"``), ``reward``
+(``"paper"`` or ``"coverage"``), ``n_rays``, ``lidar_range`` (m), ``field_of_view`` (rad),
+``lidar_noise`` (m, Gaussian; drawn from the reset seed), ``coverage_patch`` (cells per side, 0:
+none) and ``coverage_patch_cell`` (m), ``max_steps`` (default: the layout's; ``max_cycles``, the
+name PettingZoo's tests pass, is taken for it), ``terminate_on_bound``, ``terminate_on_exit``,
+``random_start``, ``team_weight``, ``record_in_info``, ``render_mode`` (``"rgb_array"`` or ``"human"``).
 """
 
 from __future__ import annotations
-
-import math
 
 import gymnasium
 import numpy as np
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
-from cabinbench.envs.coverage_env import checked_action, checked_count, checked_step_limit, observation_space
+from cabinbench.envs.settings import (
+    RENDER_MODES,
+    EnvSettings,
+    action_space,
+    checked_action,
+    checked_count,
+    observation_config,
+    observation_space,
+    resolved_layout,
+)
 from cabinbench.layouts.model import Layout
-from cabinbench.layouts.resolve import load_layout
 from cabinbench.metrics import EpisodeTracker
-from cabinbench.sim.coverage import CoveragePatch
-from cabinbench.sim.lidar import LidarConfig
+from cabinbench.sim.physics import TIME_STEP
 from cabinbench.sim.render import EnvRenderer
-from cabinbench.sim.rewards import REWARD_PRESETS, reward
+from cabinbench.sim.rewards import reward
 from cabinbench.sim.world import World, random_start_poses, start_cell_spots
-from cabinbench.values import is_real_number
 
 STATE_ENTRIES_PER_ROBOT = 6  # x, y, cos heading, sin heading, forward speed, turn rate
 TEAM_STATE_ENTRIES = 4  # coverage, cells cleared, current cell, elapsed steps
@@ -110,7 +120,7 @@ TEAM_STATE_ENTRIES = 4  # coverage, cells cleared, current cell, elapsed steps
 class TeamCoverageEnv(ParallelEnv):
     metadata = {
         "name": "cabinbench_team_v0",
-        "render_modes": ["rgb_array", "human"],
+        "render_modes": list(RENDER_MODES),
         "is_parallelizable": True,
         "render_fps": 10,
     }
@@ -119,56 +129,42 @@ class TeamCoverageEnv(ParallelEnv):
         self,
         layout: str | Layout = "a320_cell",
         n_agents: int = 2,
-        protocol: str = "sequential",
-        reward: str = "paper",
-        n_rays: int = 64,
-        lidar_range: float = 3.5,
-        field_of_view: float = 2 * math.pi,
-        lidar_noise: float = 0.0,
-        coverage_patch: int = 0,
-        coverage_patch_cell: float = 0.25,
-        max_cycles: int | None = None,
-        render_mode: str | None = None,
-        team_weight: float = 0.5,
-        record_in_info: bool = True,
-        random_start: bool = False,
+        settings: EnvSettings | None = None,
+        **overrides,
     ):
-        checked_count(n_agents, "n_agents")
-        if reward not in REWARD_PRESETS:
-            raise ValueError(f"unknown reward preset {reward!r}; choose one of {REWARD_PRESETS}")
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
-                f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}"
-            )
-        self.layout = layout if isinstance(layout, Layout) else load_layout(layout)
-        lidar = LidarConfig(n_rays, lidar_range, field_of_view, lidar_noise)
-        patch = CoveragePatch(coverage_patch, coverage_patch_cell)
-        self.world = World(self.layout, n_agents, protocol, lidar, patch)  # raises when K robots do not fit
-        if not (is_real_number(team_weight) and team_weight >= 0):
-            raise ValueError(f"team_weight must be a number >= 0, got {team_weight!r}")
-        self.reward_preset, self.team_weight, self.record_in_info = reward, team_weight, record_in_info
-        self.max_cycles = checked_step_limit(max_cycles, "max_cycles") or self.layout.max_steps
-        self.render_mode = render_mode
-        self.start_spots = start_cell_spots(self.layout) if random_start else None
+        if "max_cycles" in overrides:  # PettingZoo's name for the step limit: its max_cycles_test passes it
+            if "max_steps" in overrides:
+                raise TypeError("give the step limit once: max_steps or max_cycles, not both")
+            overrides["max_steps"] = overrides.pop("max_cycles")
+        self.settings = EnvSettings.of(settings, overrides)
+        self.n_agents = checked_count(n_agents, "n_agents")
+        self.render_mode = self.settings.render_mode
+        self.use_layout(resolved_layout(layout))  # raises when K robots do not fit its start cell
 
         self.possible_agents = [f"robot_{index}" for index in range(n_agents)]
         self.agents: list[str] = []
         self._index = {agent: index for index, agent in enumerate(self.possible_agents)}
         # One space object per agent, built once: PettingZoo requires the same object on every
         # call, and separate objects let each agent's space be seeded on its own.
+        size = self.world.observation_size
+        self.observation_spaces = {agent: observation_space(size) for agent in self.possible_agents}
+        self.action_spaces = {agent: action_space() for agent in self.possible_agents}
         self.observation_layout = self.world.observation_layout  # part name -> slice, as every agent's
-        self.observation_spaces = {
-            agent: observation_space(self.world.observation_size) for agent in self.possible_agents
-        }
-        self.action_spaces = {
-            agent: gymnasium.spaces.Box(-1.0, 1.0, (2,), np.float32) for agent in self.possible_agents
-        }
+        self.observation_config = observation_config(vars(self.settings), size)
         self.state_space = self._state_space()
 
         self.np_random: np.random.Generator | None = None
         self.tracker: EpisodeTracker | None = None
         self.episode_record: dict | None = None
-        self.renderer = EnvRenderer(render_mode)
+        self.renderer = EnvRenderer(self.render_mode)
+
+    def use_layout(self, layout: Layout) -> None:
+        """Play on ``layout`` from the next reset on (the observation's shape does not depend on it)."""
+        settings = self.settings
+        self.layout = layout
+        self.world = World(layout, self.n_agents, settings.protocol, settings.lidar(), settings.patch())
+        self.start_spots = start_cell_spots(layout) if settings.random_start else None
+        self.max_steps = settings.max_steps or layout.max_steps
 
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
         return self.observation_spaces[agent]
@@ -177,7 +173,7 @@ class TeamCoverageEnv(ParallelEnv):
         return self.action_spaces[agent]
 
     def _state_space(self) -> gymnasium.spaces.Box:
-        robots = self.world.n_robots
+        robots = self.n_agents
         size = STATE_ENTRIES_PER_ROBOT * robots + TEAM_STATE_ENTRIES + self.world.n_goals
         low = np.zeros(size, dtype=np.float32)
         per_robot = low[: STATE_ENTRIES_PER_ROBOT * robots].reshape(robots, STATE_ENTRIES_PER_ROBOT)
@@ -186,21 +182,28 @@ class TeamCoverageEnv(ParallelEnv):
 
     # ----------------------------------------------------------------------------- episode
     def reset(self, seed: int | None = None, options: dict | None = None):
-        # Gymnasium's convention: a seed re-seeds; no seed keeps the generator (seeding it once).
-        if seed is not None or self.np_random is None:
-            self.np_random, _ = seeding.np_random(seed)
-        start = None
-        if self.start_spots is not None:
-            start = random_start_poses(self.layout, self.start_spots, self.world.n_robots, self.np_random)
-        self.world.reset(self.np_random, start)
-        self.tracker = EpisodeTracker(self.world, self.max_cycles)
-        self.episode_record = None
-        # The tracker sums contacts over the team; infos report them per robot.
-        self._contacts = np.zeros((self.world.n_robots, 3), dtype=np.int64)  # obstacle, robot, bound
+        self.begin_episode(seed)
         self.agents = self.possible_agents[:]
         if self.render_mode == "human":
             self.render()
-        return self._observations(), self._infos()
+        return self.agent_observations(), self.agent_infos()
+
+    def begin_episode(self, seed: int | None = None) -> None:
+        """Reset the world without building observations (the batched envs observe in place)."""
+        self.seed_generator(seed)
+        start = None
+        if self.start_spots is not None:
+            start = random_start_poses(self.layout, self.start_spots, self.n_agents, self.np_random)
+        self.world.reset(self.np_random, start)
+        self.tracker = EpisodeTracker(self.world, self.max_steps)
+        self.episode_record = None
+        # The tracker sums contacts over the team; infos report them per robot.
+        self._contacts = [[0, 0, 0] for _ in range(self.n_agents)]  # obstacle, robot, bound
+
+    def seed_generator(self, seed: int | None) -> None:
+        """Gymnasium's convention: a seed re-seeds; no seed keeps the generator (seeding it once)."""
+        if seed is not None or self.np_random is None:
+            self.np_random, _ = seeding.np_random(seed)
 
     def step(self, actions: dict):
         if not self.agents:
@@ -209,53 +212,87 @@ class TeamCoverageEnv(ParallelEnv):
             raise ValueError(
                 f"actions must be a dict of agent name to action, as {{'robot_0': [1, 0]}}, got {actions!r}"
             )
-        commands = np.zeros((self.world.n_robots, 2))
+        commands = np.zeros((self.n_agents, 2))
         for agent, action in actions.items():
             if agent not in self._index:
                 raise ValueError(f"unknown agent {agent!r}; the agents are {self.possible_agents}")
             if action is not None:
                 commands[self._index[agent]] = checked_action(action, name=f"the action of {agent}")[0]
+        rewards, terminated, truncated = self.advance(commands)
+        observations, infos = self.agent_observations(), self.step_infos(terminated or truncated)
+        if terminated or truncated:
+            self.agents = []
+        return (
+            observations,
+            dict(zip(self.possible_agents, rewards)),
+            dict.fromkeys(self.possible_agents, terminated),
+            dict.fromkeys(self.possible_agents, truncated),
+            infos,
+        )
 
-        events = self.world.step(commands)
+    def advance(self, commands: np.ndarray) -> tuple[list[float], bool, bool]:
+        """One step on checked (K, 2) ``commands`` (:func:`~cabinbench.envs.settings.checked_action`),
+        without building observations and infos: (each robot's reward, terminated, truncated). The
+        episode's record is kept in ``episode_record`` when it ends."""
+        if self.tracker is None:
+            raise RuntimeError("call reset() before step()")
+        settings, world = self.settings, self.world
+        events = world.step(commands)
         self.tracker.update(events)
-        for index, robot in enumerate(events.robots):
-            self._contacts[index] += (robot.collisions, robot.robot_collisions, robot.bound_violations)
-        rewards = {
-            agent: reward(self.reward_preset, events, index, self.world.coverable_pixels, self.team_weight)
-            for agent, index in self._index.items()
-        }
-        terminated = bool(events.success)
-        truncated = not terminated and self.tracker.steps >= self.max_cycles
-        terminations = dict.fromkeys(self.possible_agents, terminated)
-        truncations = dict.fromkeys(self.possible_agents, truncated)
-        observations, infos = self._observations(), self._infos()
+        for contacts, robot in zip(self._contacts, events.robots):
+            contacts[0] += robot.collisions
+            contacts[1] += robot.robot_collisions
+            contacts[2] += robot.bound_violations
+        rewards = [
+            reward(settings.reward, events, index, world.coverable_pixels, settings.team_weight)
+            for index in range(self.n_agents)
+        ]
+        terminated = bool(
+            events.success
+            or (settings.terminate_on_bound and any(robot.bound_violations for robot in events.robots))
+            or (settings.terminate_on_exit and any(robot.exits_reached for robot in events.robots))
+        )
+        truncated = not terminated and self.tracker.steps >= self.max_steps
         if terminated or truncated:
             self.episode_record = self.tracker.record()
-            if self.record_in_info:
-                for info in infos.values():
-                    info["episode_record"] = self.episode_record
-            self.agents = []
         if self.render_mode == "human":
             self.render()
-        return observations, rewards, terminations, truncations, infos
+        return rewards, terminated, truncated
 
-    def _observations(self) -> dict:
+    def agent_observations(self) -> dict:
         return {agent: self.world.observe(index) for agent, index in self._index.items()}
 
-    def _infos(self) -> dict:
-        team = self.tracker.running()
-        poses = self.world.poses
+    def agent_infos(self) -> dict:
+        """Every agent's info (see the module docstring): the same keys at every step."""
+        tracker, world = self.tracker, self.world
+        coverage, time = np.float64(world.coverage), np.float64(tracker.steps * TIME_STEP)
+        steps, cells_cleared = np.int64(tracker.steps), np.int64(world.cells_cleared)
+        current_cell, success = np.int64(world.current_cell), np.bool_(world.success)
+        poses = world.poses
         infos = {}
         for agent, index in self._index.items():
-            collisions, robot_collisions, bound_violations = self._contacts[index]
+            obstacle, robot, bound = self._contacts[index]
             infos[agent] = {
-                **team,
-                "path_length": float(self.tracker.path_lengths[index]),
-                "collisions": int(collisions),
-                "robot_collisions": int(robot_collisions),
-                "bound_violations": int(bound_violations),
+                "coverage": coverage,
+                "path_length": tracker.path_lengths[index],  # a numpy float64
+                "time": time,
+                "steps": steps,
+                "collisions": np.int64(obstacle),
+                "robot_collisions": np.int64(robot),
+                "bound_violations": np.int64(bound),
+                "cells_cleared": cells_cleared,
+                "current_cell": current_cell,
+                "success": success,
                 "pose": poses[index].copy(),
             }
+        return infos
+
+    def step_infos(self, ended: bool) -> dict:
+        """A step's infos: with ``record_in_info``, the last step's carry the episode record."""
+        infos = self.agent_infos()
+        if ended and self.settings.record_in_info:
+            for info in infos.values():
+                info["episode_record"] = self.episode_record
         return infos
 
     def state(self) -> np.ndarray:
@@ -279,7 +316,7 @@ class TeamCoverageEnv(ParallelEnv):
             world.coverage,
             world.cell_cleared.mean(),
             world.current_cell / cells,
-            min(1.0, self.tracker.steps / self.max_cycles),
+            min(1.0, self.tracker.steps / self.max_steps),
         ]
         state = np.concatenate([per_robot.ravel(), team, world.goal_reached]).astype(np.float32)
         # contacts can push a robot a little faster than commanded: keep the state in its space

@@ -40,6 +40,7 @@ import numpy as np
 
 from cabinbench.errors import LayoutError
 from cabinbench.layouts.fields import CONTACT_CLEARANCE, FieldChecker, RobotSpec
+from cabinbench.layouts.kinds.cabin import check_cabin_size
 from cabinbench.layouts.load import build_layout, builtin_layout_dir, parse_yaml, read_text
 from cabinbench.layouts.model import Layout, geometry_hash
 from cabinbench.values import is_whole_number
@@ -176,6 +177,27 @@ def _check_family(check: FieldChecker, spec: dict) -> None:
             check.fail(
                 f"{key}[0]", f"at least 1, got {spec[key][0]}", "a cabin has at least one cell and row"
             )
+    _check_largest_cabin(check, spec)
+
+
+def _check_largest_cabin(check: FieldChecker, spec: dict) -> None:
+    """Refuse a family whose largest cabin (every range at its high end) is too large to load, before
+    a draw makes a row at a time of it."""
+    rows = spec["cells"][1] * spec["rows_per_cell"][1]
+    pitch = spec["seat_pitch"][1] + (spec["exit_rows"]["extra_pitch"][1] if "exit_rows" in spec else 0.0)
+    widths = [item["width"][1] for item in spec["configurations"]]
+    widest = int(np.argmax(widths))
+    blocks = max(len(item["seats"]) for item in spec["configurations"])
+    clutter = sum(spec["clutter"][key][1] for key in ("bags", "items")) if "clutter" in spec else 0
+    lengths = {
+        "cells": rows * pitch,
+        "front_clearance": spec["front_clearance"][1],
+        "rear_clearance": spec["rear_clearance"][1],
+    }
+    walls = 4 * (
+        1 + rows * blocks + 2 * blocks * spec["cells"][1] + clutter + 3
+    )  # bulkheads, galleys, trolley
+    check_cabin_size(check, (f"configurations[{widest}].width", widths[widest]), lengths, walls)
 
 
 class _Draw:
@@ -225,38 +247,18 @@ def draw_spec(family: Family, index: int, attempt: int) -> dict:
 
     obstacles: list[list[float]] = []
     if "galleys" in spec:
-        galleys = spec["galleys"]
-        for x_lo, zone in ((0.0, front), (length - rear, rear)):
-            if draw.chance(galleys["probability"]):
-                galley_depth = min(draw.uniform(galleys["depth"]), zone - MIN_GAP)
-                galley_width = draw.uniform(galleys["width"])
-                at_port = draw.chance(0.5)
-                y_lo = 0.0 if at_port else width - galley_width
-                x0 = x_lo if x_lo == 0.0 else length - galley_depth
-                if galley_depth > 0.05:
-                    obstacles.append([x0, y_lo, x0 + galley_depth, y_lo + galley_width])
+        obstacles += _draw_galleys(draw, spec["galleys"], front, rear, length, width)
     if "bulkheads" in spec:
-        thickness = spec["bulkheads"]["thickness"]
-        for first_row in range(rows_per_cell, rows, rows_per_cell):
-            room = pitches[first_row] - depth - thickness
-            if draw.chance(spec["bulkheads"]["probability"]) and room >= MIN_GAP:
-                x0 = float(slot_starts[first_row])
-                obstacles += [[x0, lo, x0 + thickness, hi] for lo, hi in blocks]
+        cell_firsts = range(rows_per_cell, rows, rows_per_cell)
+        obstacles += _draw_bulkheads(
+            draw, spec["bulkheads"], cell_firsts, pitches, depth, slot_starts, blocks
+        )
     if "clutter" in spec:
-        clutter = spec["clutter"]
-        free_zones = [(0.0, front), (length - rear, length)]
-        for size, count in ((BAG, draw.integer(clutter["bags"])), (ITEM, draw.integer(clutter["items"]))):
-            for _ in range(count):
-                piece = _place_clutter(
-                    draw, size, aisle_spans, slot_starts, depth, free_zones, width, start, robot
-                )
-                if piece is not None:
-                    obstacles.append(piece)
-        if draw.chance(clutter["trolley"]) and rear >= TROLLEY[0] + MIN_GAP + 0.02 and aisle_spans:
-            lo, hi = aisle_spans[int(draw.rng.integers(len(aisle_spans)))]
-            y0 = round((lo + hi - TROLLEY[1]) / 2, 3)
-            x1 = round(length - 0.02, 3)
-            obstacles.append([round(x1 - TROLLEY[0], 3), y0, x1, round(y0 + TROLLEY[1], 3)])
+        cabin_ends = [(0.0, front), (length - rear, length)]
+        obstacles += _draw_clutter(
+            draw, spec["clutter"], aisle_spans, slot_starts, depth, cabin_ends, width, start, robot
+        )
+        obstacles += _draw_trolley(draw, spec["clutter"]["trolley"], aisle_spans, length, rear)
 
     cabin = {
         "width": width,
@@ -284,6 +286,61 @@ def draw_spec(family: Family, index: int, attempt: int) -> dict:
         "source": f"{family.path} index {index} draw {attempt}",
         "cabin": cabin,
     }
+
+
+def _draw_galleys(draw: _Draw, galleys: dict, front: float, rear: float, length: float, width: float) -> list:
+    """A galley or lavatory block against a side wall in each end zone, by chance; none too shallow to
+    matter (5 cm), and each leaves ``MIN_GAP`` of its zone free."""
+    obstacles = []
+    for x_lo, zone in ((0.0, front), (length - rear, rear)):
+        if draw.chance(galleys["probability"]):
+            galley_depth = min(draw.uniform(galleys["depth"]), zone - MIN_GAP)
+            galley_width = draw.uniform(galleys["width"])
+            at_port = draw.chance(0.5)
+            y_lo = 0.0 if at_port else width - galley_width
+            x0 = x_lo if x_lo == 0.0 else length - galley_depth
+            if galley_depth > 0.05:
+                obstacles.append([x0, y_lo, x0 + galley_depth, y_lo + galley_width])
+    return obstacles
+
+
+def _draw_bulkheads(draw: _Draw, bulkheads: dict, cell_firsts, pitches, depth, slot_starts, blocks) -> list:
+    """By chance, a wall across every seat block in front of the first row of each cell but the
+    first (``cell_firsts``), where it leaves that row ``MIN_GAP`` of legroom."""
+    obstacles = []
+    thickness = bulkheads["thickness"]
+    for first_row in cell_firsts:
+        room = pitches[first_row] - depth - thickness
+        if draw.chance(bulkheads["probability"]) and room >= MIN_GAP:
+            x0 = float(slot_starts[first_row])
+            obstacles += [[x0, lo, x0 + thickness, hi] for lo, hi in blocks]
+    return obstacles
+
+
+def _draw_clutter(
+    draw: _Draw, clutter: dict, aisle_spans, slot_starts, depth, cabin_ends, width, start, robot
+):
+    """Bags and dropped items, each where :func:`_place_clutter` finds room for it."""
+    obstacles = []
+    for piece_size, count in ((BAG, draw.integer(clutter["bags"])), (ITEM, draw.integer(clutter["items"]))):
+        for _ in range(count):
+            piece = _place_clutter(
+                draw, piece_size, aisle_spans, slot_starts, depth, cabin_ends, width, start, robot
+            )
+            if piece is not None:
+                obstacles.append(piece)
+    return obstacles
+
+
+def _draw_trolley(draw: _Draw, probability: float, aisle_spans, length: float, rear: float) -> list:
+    """By chance, a service trolley parked in an aisle at the rear galley, where the rear zone has
+    room for it and a way past."""
+    if draw.chance(probability) and rear >= TROLLEY[0] + MIN_GAP + 0.02 and aisle_spans:
+        lo, hi = aisle_spans[int(draw.rng.integers(len(aisle_spans)))]
+        y0 = round((lo + hi - TROLLEY[1]) / 2, 3)
+        x1 = round(length - 0.02, 3)
+        return [[round(x1 - TROLLEY[0], 3), y0, x1, round(y0 + TROLLEY[1], 3)]]
+    return []
 
 
 def _place_clutter(draw, size, aisle_spans, slot_starts, depth, zones, width, start, robot):

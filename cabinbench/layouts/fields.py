@@ -14,6 +14,7 @@ from cabinbench.values import is_real_number, is_whole_number
 
 CONTACT_CLEARANCE = 0.01  # metres: a reachable pose keeps this from walls, so covering needs no contact
 RESOLUTION = 0.05  # metres per coverage-raster pixel, the seed's map resolution
+MAX_POLYGON_CORNERS = 10_000
 
 
 @dataclass(frozen=True)
@@ -109,6 +110,13 @@ class FieldChecker:
     def polygon(self, value, field_name: str) -> np.ndarray:
         if not isinstance(value, list) or len(value) < 3:
             self.fail(field_name, "a polygon needs at least 3 points", "list the corners as [[x, y], ...]")
+        if len(value) > MAX_POLYGON_CORNERS:
+            self.fail(
+                field_name,
+                f"{len(value)} corners, more than the {MAX_POLYGON_CORNERS} a polygon may have (checking "
+                "that its edges do not cross takes seconds per 10,000)",
+                "simplify the outline: a corner every few centimetres is as exact as the 5 cm raster",
+            )
         points = np.array([self.point(p, f"{field_name}[{i}]") for i, p in enumerate(value)])
         if np.allclose(points[0], points[-1]):
             points = points[:-1]  # a repeated first point closes the ring explicitly
@@ -174,22 +182,27 @@ def _signed_area(points: np.ndarray) -> float:
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
 
 
-def _segments_cross(p1, p2, q1, q2) -> bool:
-    def orient(a, b, c):
-        return np.sign((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
-
-    return orient(p1, p2, q1) * orient(p1, p2, q2) < 0 and orient(q1, q2, p1) * orient(q1, q2, p2) < 0
+def _orientation(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Sign of the turn a → b → c (+1 left, -1 right, 0 straight), for points or arrays of them."""
+    return np.sign(
+        (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0])
+    )
 
 
 def _self_intersects(points: np.ndarray) -> bool:
+    """Whether two edges of the ring ``points`` that are not neighbours cross (each edge against all
+    later ones at once: a traced outline of thousands of corners takes a second, not minutes)."""
     n = len(points)
-    edges = [(points[i], points[(i + 1) % n]) for i in range(n)]
-    return any(
-        _segments_cross(*edges[i], *edges[j])
-        for i in range(n)
-        for j in range(i + 2, n)
-        if not (i == 0 and j == n - 1)  # neighbours share a corner
-    )
+    starts, ends = points, np.roll(points, -1, axis=0)
+    for i in range(n - 2):
+        later = np.arange(i + 2, n if i else n - 1)  # neighbours share a corner: edge 0 and edge n - 1 too
+        p1, p2, q1, q2 = starts[i], ends[i], starts[later], ends[later]
+        crossing = (_orientation(p1, p2, q1) * _orientation(p1, p2, q2) < 0) & (
+            _orientation(q1, q2, p1) * _orientation(q1, q2, p2) < 0
+        )
+        if crossing.any():
+            return True
+    return False
 
 
 def rectangle(xmin: float, ymin: float, xmax: float, ymax: float) -> np.ndarray:

@@ -49,6 +49,7 @@ from cabinbench.layouts.model import DEFAULT_SUCCESS_COVERAGE, LAYOUT_PATH_VARIA
 from cabinbench.values import is_whole_number
 
 LAYOUT_KINDS: dict[str, LayoutKind] = {kind.name: kind for kind in (CABIN, GRID, POLYGONS, OCCUPANCY)}
+MAX_LAYOUT_FILE_BYTES = 2**20
 COMMON_KEYS = {
     "name",
     "kind",
@@ -120,7 +121,16 @@ def parse_yaml(text: str, source: str) -> dict:
 
 
 def read_layout(path: Path) -> Layout:
-    """Load the layout file at ``path``; a file that cannot be read is a :class:`LayoutError` too."""
+    """Load the layout file at ``path``; a file that cannot be read, or too large to read in seconds
+    (:data:`MAX_LAYOUT_FILE_BYTES`), is a :class:`LayoutError` too."""
+    if path.is_file() and path.stat().st_size > MAX_LAYOUT_FILE_BYTES:
+        raise LayoutError(
+            str(path),
+            "<file>",
+            f"is {path.stat().st_size / 2**20:,.1f} MiB, more than the {MAX_LAYOUT_FILE_BYTES // 2**20} MiB "
+            "a layout file may be (YAML of numbers reads at about 30 KiB a second)",
+            "draw a large map as an image (kind: occupancy), or a grid with fewer, larger cells",
+        )
     return parse_layout(read_text(path), source=str(path), default_name=path.stem)
 
 
@@ -346,8 +356,12 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 def _validate_reachability(check: FieldChecker, layout: Layout):
     centre_free = layout.centre_free
     distance_to_reachable = ndimage.distance_transform_edt(~centre_free) * RESOLUTION
+    cell_of = layout.cell_raster
+    coverable_by_cell = np.bincount(
+        cell_of[layout.coverable_raster & (cell_of >= 0)], minlength=len(layout.cells)
+    )
     for cell_index, cell in enumerate(layout.cells):
-        if not (layout.coverable_raster & (layout.cell_raster == cell_index)).any():
+        if not coverable_by_cell[cell_index]:
             check.fail(
                 f"cells[{cell_index}]",
                 f"cell '{cell.name}' has no floor the robot can reach",

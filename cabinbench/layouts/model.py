@@ -20,13 +20,16 @@ import numpy as np
 from matplotlib.path import Path as PolygonPath
 from scipy import ndimage
 
-from cabinbench.geometry import resample_raster, world_to_pixel
+from cabinbench.geometry import distances_to_segments, resample_raster, world_to_pixel
 from cabinbench.layouts.fields import CONTACT_CLEARANCE, RESOLUTION, Cell, RasterMap, RobotSpec
 
 LAYOUT_PATH_VARIABLE = "CABINBENCH_LAYOUT_PATH"
 MARKER_RADIUS = 0.08  # goal cubes and exit landmarks, as the lidar sees them
 DEFAULT_SUCCESS_COVERAGE = 0.98  # "all coverable area covered", less the raster's rounding at edges
 WALL_TILE = 0.8  # metres: points per tile in Layout.distance_to_walls (about the gap between seat rows)
+# tile-to-wall distances Layout.distance_to_walls holds at once (each of its temporaries 32 MiB): a
+# long cabin's tiles times its walls would take gigabytes
+TILE_WALL_BATCH = 2**22
 
 
 @dataclass(frozen=True)
@@ -147,11 +150,16 @@ class Layout:
         lows = np.array([points[members].min(axis=0) for members in groups])
         highs = np.array([points[members].max(axis=0) for members in groups])
         radii = np.hypot(*(highs - lows).T) / 2
-        to_centres = _point_segment_distances((lows + highs) / 2, starts, ends)  # every tile's at once
+        centres = (lows + highs) / 2
         nearest = np.empty(len(points))
-        for members, to_centre, radius in zip(groups, to_centres, radii):
-            near = to_centre <= to_centre.min() + 2 * radius + 1e-9
-            nearest[members] = _point_segment_distances(points[members], starts[near], ends[near]).min(axis=1)
+        batch = max(1, TILE_WALL_BATCH // len(starts))  # tiles measured against every wall at once
+        for first in range(0, len(groups), batch):
+            to_centres = distances_to_segments(centres[first : first + batch], starts, ends)
+            for members, to_centre, radius in zip(groups[first : first + batch], to_centres, radii[first:]):
+                near = to_centre <= to_centre.min() + 2 * radius + 1e-9
+                nearest[members] = distances_to_segments(points[members], starts[near], ends[near]).min(
+                    axis=1
+                )
         return nearest
 
     @cached_property
@@ -190,7 +198,9 @@ class Layout:
     def cell_raster(self) -> np.ndarray:
         """Index of the cell each pixel belongs to (-1 outside every cell)."""
         xs, ys = self.pixel_centres()
-        labels = np.full(self.raster_shape, -1, dtype=np.int8)
+        labels = np.full(
+            self.raster_shape, -1, dtype=np.min_scalar_type(-len(self.cells))
+        )  # int8 to 128 cells
         for index, cell in enumerate(self.cells):
             xmin, ymin, xmax, ymax = cell.rect
             inside_x = (xs >= xmin) & (xs < xmax)
@@ -231,15 +241,6 @@ class Layout:
         cell_of = row_of[:, None] * grid_cols + col_of[None, :]
         standable = np.bincount(cell_of[self.centre_free], minlength=grid_rows * grid_cols)
         return (standable == 0).reshape(grid_rows, grid_cols)
-
-
-def _point_segment_distances(points: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
-    """(N, S) exact distances from each point to each segment."""
-    px, py = points[:, :1], points[:, 1:]
-    dx, dy = ends[:, 0] - starts[:, 0], ends[:, 1] - starts[:, 1]
-    length_sq = np.maximum(dx**2 + dy**2, 1e-12)
-    t = np.clip(((px - starts[:, 0]) * dx + (py - starts[:, 1]) * dy) / length_sq, 0.0, 1.0)
-    return np.sqrt((starts[:, 0] + t * dx - px) ** 2 + (starts[:, 1] + t * dy - py) ** 2)
 
 
 def geometry_hash(layout: Layout) -> str:

@@ -263,14 +263,40 @@ def finding(lines: list[dict]) -> str:
 
 
 def suite_part(suite: str, episodes: pd.DataFrame, folder) -> tuple[list[str], list]:
+    """The Markdown of one suite in ``leaderboard.md`` (scores, performance profiles, probability of
+    improvement, complexity against difficulty, notes) and its three figures, drawn into ``folder``:
+    (the lines, the figures' paths)."""
     rows, notes = suite_rows(episodes)
     labels = [row_label(row) for row in rows]
     name = safe_name(suite)
     figures = [folder / f"suite__{name}__profiles.png", folder / f"suite__{name}__improvement.png"]
     figures.append(folder / f"suite__{name}__complexity.png")
+    table = improvement_table(rows, IMPROVEMENT_METRIC)
+    complexity = complexity_rows(rows, episodes)
     lines = [
         f"#### Suite `{suite}`",
         "",
+        *_score_lines(rows, episodes),
+        "",
+        *_profile_lines(rows, figures[0].name),
+        "",
+        *_improvement_lines(table, labels, figures[1].name),
+        "",
+        *_complexity_lines(complexity, figures[2].name),
+        "",
+        finding(complexity),
+    ]
+    if notes:
+        lines += ["", "Notes:", "", *(f"- {note}" for note in notes)]
+    profile_figure(rows, suite, figures[0])
+    improvement_figure(table, labels, suite, figures[1])
+    complexity_figure(complexity, suite, figures[2])
+    return lines, figures
+
+
+def _score_lines(rows: list[dict], episodes: pd.DataFrame) -> list[str]:
+    """What the scores are, and the table of every row's scores."""
+    lines = [
         f"{len(episodes)} episodes on {episodes['layout'].nunique()} layouts. Scores: the mean over layouts "
         "(and training seeds) of per-layout means ± half-width of the stratified bootstrap 95% interval "
         "(layouts, training seeds and episodes resampled); IQM over the per-(seed, layout) means; success "
@@ -292,27 +318,34 @@ def suite_part(suite: str, episodes: pd.DataFrame, folder) -> tuple[list[str], l
             )
             + " |"
         )
-    lines += [
-        "",
-        f"Performance profiles (fraction of layouts above each level; figure `{figures[0].name}`):",
-        "",
-    ]
+    return lines
+
+
+def _profile_lines(rows: list[dict], figure: str) -> list[str]:
+    """The performance profiles at the levels of ``PROFILES``, a row each."""
     levels = [(metric, level) for metric, values in PROFILES.items() for level in values]
-    lines.append("| baseline | " + " | ".join(f"{metric} > {level}" for metric, level in levels) + " |")
-    lines.append("|---|" + "---:|" * len(levels))
+    lines = [
+        f"Performance profiles (fraction of layouts above each level; figure `{figure}`):",
+        "",
+        "| baseline | " + " | ".join(f"{metric} > {level}" for metric, level in levels) + " |",
+        "|---|" + "---:|" * len(levels),
+    ]
     for row in rows:
         cells = [
             f"{performance_profile(per_layout(row['cells'], metric), [level])[0]:.2f}"
             for metric, level in levels
         ]
         lines.append(f"| {row_label(row)} | " + " | ".join(cells) + " |")
-    table = improvement_table(rows, IMPROVEMENT_METRIC)
-    lines += [
-        "",
+    return lines
+
+
+def _improvement_lines(table: dict, labels: list[str], figure: str) -> list[str]:
+    """The probability of improvement of every row over every other, as a matrix."""
+    lines = [
         f"Probability of improvement P(X > Y) on {IMPROVEMENT_METRIC}: per layout, the chance that an "
         "episode of X (row) covers more than one of Y (column), ties half, averaged over layouts, with a "
         "bootstrap "
-        f"95% interval over layouts (figure `{figures[1].name}`):",
+        f"95% interval over layouts (figure `{figure}`):",
         "",
         "| X \\ Y | " + " | ".join(labels) + " |",
         "|---|" + "---:|" * len(labels),
@@ -322,13 +355,16 @@ def suite_part(suite: str, episodes: pd.DataFrame, folder) -> tuple[list[str], l
             "—" if (x, y) not in table else markdown_cell(table[x, y], ".2f", bounds=True) for y in labels
         ]
         lines.append(f"| {x} | " + " | ".join(cells) + " |")
-    complexity = complexity_rows(rows, episodes)
-    lines += [
-        "",
+    return lines
+
+
+def _complexity_lines(complexity: list[dict], figure: str) -> list[str]:
+    """Spearman's ρ between the layouts' complexity and each baseline's per-layout difficulty."""
+    lines = [
         "Does navigation complexity predict difficulty? Spearman's ρ over the suite's layouts between each "
         "layout's complexity and the baseline's per-layout score, with a bootstrap 95% interval over layouts "
         "(t90: an episode that never reached 90% counts its whole time, a lower bound; figure "
-        f"`{figures[2].name}`):",
+        f"`{figure}`):",
         "",
         "| baseline | difficulty | layouts | ρ with total complexity | ρ with normalised complexity |",
         "|---|---|---:|---:|---:|",
@@ -339,13 +375,7 @@ def suite_part(suite: str, episodes: pd.DataFrame, folder) -> tuple[list[str], l
             + " | ".join(markdown_cell(line[kind], ".2f", bounds=True) for kind in COMPLEXITY)
             + " |"
         )
-    lines += ["", finding(complexity)]
-    if notes:
-        lines += ["", "Notes:", "", *(f"- {note}" for note in notes)]
-    profile_figure(rows, suite, figures[0])
-    improvement_figure(table, labels, suite, figures[1])
-    complexity_figure(complexity, suite, figures[2])
-    return lines, figures
+    return lines
 
 
 def gap_rows(records: pd.DataFrame) -> list[dict]:

@@ -21,9 +21,12 @@ from numba import njit
 
 from cabinbench.layouts.fields import RESOLUTION
 from cabinbench.layouts.model import Layout
+from cabinbench.memory import too_much_memory
 from cabinbench.values import is_real_number, is_whole_number
 
 PATCH_SAMPLES = 3  # samples per patch cell and axis: a 0.25 m cell is read on a 3 x 3 grid
+# float32 each: the observation space's low and high, the observation, and a copy of it handed out
+PATCH_BYTES_PER_ENTRY = 16
 
 
 class CoverageRaster:
@@ -93,6 +96,12 @@ class CoveragePatch:
             )
         if not (is_real_number(self.cell_size) and self.cell_size > 0):
             raise ValueError(f"coverage_patch_cell must be a positive size in metres, got {self.cell_size!r}")
+        problem = too_much_memory(self.size * PATCH_BYTES_PER_ENTRY)
+        if problem:
+            raise ValueError(
+                f"coverage_patch {self.cells}: a patch of {self.cells} x {self.cells} cells {problem}; "
+                "use a few dozen cells (e.g. coverage_patch=16)"
+            )
 
     @property
     def size(self) -> int:

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from cabinbench.geometry import segment_offset
 from cabinbench.values import is_real_number, is_whole_number
 
 TAGS = ("obstacle", "bound", "goal", "exit", "robot")  # one-hot order in observations
@@ -113,6 +114,28 @@ class LidarConfig:
         return np.linspace(-self.field_of_view / 2, self.field_of_view / 2, self.n_rays)
 
 
+@njit(cache=True)
+def _segments_in_range(x, y, max_range, segments, segment_on, grid_meta, grid_starts, grid_items, near):
+    """Write into ``near`` the switched-on segments within ``max_range`` of (x, y), each once, and
+    return how many: the only ones any ray of the scan can hit. Reads only the buckets in range."""
+    seen = np.zeros(segments.shape[0], dtype=np.bool_)
+    n_near = 0
+    gx, gy, cell, rows, cols = grid_meta[0], grid_meta[1], grid_meta[2], int(grid_meta[3]), int(grid_meta[4])
+    c0, c1 = _bucket_range(x - max_range, x + max_range, gx, cell, cols)
+    r0, r1 = _bucket_range(y - max_range, y + max_range, gy, cell, rows)
+    for r in range(r0, r1 + 1):
+        for k in range(grid_starts[r * cols + c0], grid_starts[r * cols + c1 + 1]):
+            s = grid_items[k]
+            if seen[s] or not segment_on[s]:
+                continue
+            seen[s] = True
+            dx, dy = segment_offset(x, y, segments[s, 0], segments[s, 1], segments[s, 2], segments[s, 3])
+            if dx * dx + dy * dy <= max_range * max_range:
+                near[n_near] = s
+                n_near += 1
+    return n_near
+
+
 @njit(cache=True, fastmath=True)
 def cast_rays(
     x,
@@ -138,28 +161,10 @@ def cast_rays(
     them); ``circles`` is (C, 3) [x, y, radius]. Entries whose ``*_on`` flag is False are ignored,
     as is any disc containing the ray origin (the robot itself, or a marker it stands on).
     """
-    # Cull once per scan: only segments in the buckets within range, and of those only the ones
-    # within range, can be hit by any ray.
     near_segments = np.empty(segments.shape[0], dtype=np.int64)
-    seen = np.zeros(segments.shape[0], dtype=np.bool_)
-    n_near = 0
-    gx, gy, cell, rows, cols = grid_meta[0], grid_meta[1], grid_meta[2], int(grid_meta[3]), int(grid_meta[4])
-    c0, c1 = _bucket_range(x - max_range, x + max_range, gx, cell, cols)
-    r0, r1 = _bucket_range(y - max_range, y + max_range, gy, cell, rows)
-    for r in range(r0, r1 + 1):
-        for k in range(grid_starts[r * cols + c0], grid_starts[r * cols + c1 + 1]):
-            s = grid_items[k]
-            if seen[s] or not segment_on[s]:
-                continue
-            seen[s] = True
-            ax, ay, bx, by = segments[s, 0], segments[s, 1], segments[s, 2], segments[s, 3]
-            ex, ey = bx - ax, by - ay
-            length_sq = ex * ex + ey * ey
-            t = 0.0 if length_sq == 0.0 else min(1.0, max(0.0, ((x - ax) * ex + (y - ay) * ey) / length_sq))
-            dx, dy = ax + t * ex - x, ay + t * ey - y
-            if dx * dx + dy * dy <= max_range * max_range:
-                near_segments[n_near] = s
-                n_near += 1
+    n_near = _segments_in_range(
+        x, y, max_range, segments, segment_on, grid_meta, grid_starts, grid_items, near_segments
+    )
     for r in range(ray_angles.shape[0]):
         angle = heading + ray_angles[r]
         dx, dy = math.cos(angle), math.sin(angle)

@@ -8,6 +8,8 @@ right).
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from cabinbench.geometry import distances_to_segments
@@ -19,6 +21,7 @@ from cabinbench.layouts.fields import (
     RobotSpec,
     rectangle,
 )
+from cabinbench.layouts.sizes import check_layout_size
 
 
 def build_grid(check: FieldChecker, block, robot: RobotSpec) -> KindGeometry:
@@ -41,6 +44,16 @@ def build_grid(check: FieldChecker, block, robot: RobotSpec) -> KindGeometry:
     if text.count("S") > 1:
         check.fail("grid.map", f"{text.count('S')} start cells 'S'", "mark at most one start with 'S'")
     rows, cols = len(lines), len(lines[0])
+    check_layout_size(
+        check,
+        "grid.map",
+        f"a {rows} x {cols} map of {cell_size:g} m cells",
+        "use fewer rows and columns, or a smaller cell_size",
+        cols * cell_size,
+        rows * cell_size,
+        walls=4 * (1 + len(re.findall("#+", text))),  # a run of '#' in a row is one rectangle
+        map_pixels=rows * cols,
+    )
     obstacles, start = [], None
     for text_row, line in enumerate(lines):
         y0 = (rows - 1 - text_row) * cell_size

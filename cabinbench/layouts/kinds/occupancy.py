@@ -14,12 +14,11 @@ read but does not rotate it), ``negate``, ``occupied_thresh``, ``free_thresh``, 
 - Without a ``start``: the robot starts, heading along +x, at the pixel centre farthest from every
   wall in the largest connected region of the floor where it fits (its disc clear of every wall by
   ``CONTACT_CLEARANCE``); of equally far pixels, the first from the bottom row up, left to right.
-- A map whose raster would need more memory than the machine has is refused before it is decoded.
+- A map too large to load (:mod:`cabinbench.layouts.sizes`) is refused before it is decoded.
 """
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -37,9 +36,9 @@ from cabinbench.layouts.fields import (
     RobotSpec,
     rectangle,
 )
+from cabinbench.layouts.sizes import check_layout_size
 
 MIN_SPECKLE_AREA = 0.01  # m²: islands smaller than this (4 pixels at 5 cm) are SLAM noise
-BYTES_PER_RASTER_PIXEL, BYTES_PER_MAP_PIXEL = 200, 60  # peak memory of loading (measured: about 2/3)
 KEYS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode")
 
 
@@ -72,8 +71,16 @@ def build_occupancy(check: FieldChecker, block, robot: RobotSpec) -> KindGeometr
     path = folder / image_name
     image, data = rosmap.open_image(check, path, "occupancy.image")
     width, height = image.size
+    check_layout_size(
+        check,
+        "occupancy.image",
+        f"{path} ({width} x {height} px of {resolution:g} m)",
+        "crop the map to the floor to be cleaned, or check its resolution",
+        width * resolution,
+        height * resolution,
+        map_pixels=width * height,
+    )
     shape = (_cells(height * resolution), _cells(width * resolution))
-    _check_memory(check, path, (height, width), shape)
     values = rosmap.occupancy_values(
         rosmap.decode_image(check, image, path, "occupancy.image"), mode, bool(negate), occupied, free
     )
@@ -104,19 +111,6 @@ def _threshold(check: FieldChecker, block: dict, key: str, default: float) -> fl
 
 def _cells(length: float) -> int:
     return max(1, int(np.ceil(length / RESOLUTION - 1e-9)))
-
-
-def _check_memory(check: FieldChecker, path: Path, size: tuple[int, int], shape: tuple[int, int]):
-    """Refuse, before decoding, a map whose raster would not fit in this machine's memory."""
-    needed = shape[0] * shape[1] * BYTES_PER_RASTER_PIXEL + size[0] * size[1] * BYTES_PER_MAP_PIXEL
-    available = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    if needed > available:
-        check.fail(
-            "occupancy.image",
-            f"{path} is {size[1]} x {size[0]} px ({shape[1]} x {shape[0]} at 5 cm): loading it needs "
-            f"about {needed / 2**30:.1f} GB, more than this machine's {available / 2**30:.1f} GB",
-            "crop the map to the floor to be cleaned, or use a larger machine",
-        )
 
 
 def remove_speckles(floor: np.ndarray, min_pixels: int) -> np.ndarray:

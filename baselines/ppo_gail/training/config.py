@@ -1,0 +1,318 @@
+"""``TrainConfig``: every setting of a training run, with its default and why; the run folder's names.
+
+Its fields marked ``option(...)`` are the train command's options (``baselines.ppo_gail.options``): the
+first sentence of each field's docstring is the option's help.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from cabinbench.baselines.ppo_gail.algorithm import ABLATIONS, REWARD_SIGNALS
+from cabinbench.baselines.ppo_gail.options import option
+from cabinbench.baselines.ppo_gail.runner_config import check_algorithm_settings
+
+from cabinbench.sim.rewards import REWARD_PRESETS
+
+
+@dataclass
+class TrainConfig:
+    """Every setting of a training run. Saved as ``config.json`` in the run directory.
+
+    The defaults are the shipped policies' configuration, sized to train in about 20 minutes on a 2-core CPU
+    (the study trained for 6 M + 2 M steps on a GPU in Unity). The ablations share it, and so the budget. How
+    the defaults score over three seeds per ablation: ``results/ablation.md``; the trials behind them:
+    ``docs/experiments.md``.
+    """
+
+    ablation: str = "ppo_gail"
+    """One of ``ABLATIONS``: "ppo_gail", "ppo", "ppo_icm", "ppo_gail_only"."""
+    layouts: list[str] = option(default_factory=list, flag="--layout", metavar="NAME", repeat=True)
+    """Training layouts, shared round-robin by the parallel envs; empty: the study's cleaning and tracking
+    cells (``CELL_LAYOUTS``), or none with ``suite``."""
+    suite: str | None = option(None, metavar="NAME")
+    """Train on this suite (``cabinbench.suites``) instead of ``layouts``, so that the policy learns the
+    family rather than one map. Every parallel env is a ``CabinBench/Suite-v0`` env that draws a new layout of
+    the suite at each reset from its seeded generator. The config records the suite's version too."""
+    num_envs: int = option(64)
+    """Parallel envs, whose rollouts together make an iteration's batch."""
+    num_steps_per_env: int = option(64, flag="--steps-per-env")
+    """Rollout length per env and iteration (ML-Agents' ``time_horizon``); an iteration collects ``num_envs *
+    num_steps_per_env`` steps (ML-Agents' ``buffer_size``)."""
+    num_mini_batches: int = 4
+    """Mini-batches per epoch of the update (PPO, ICM and discriminator alike): 4096 / 4 = 1024 samples each.
+    Few large mini-batches: on a CPU the update dominates the iteration time."""
+    iterations: int = option(800)
+    """Training iterations: 3.3 M steps with the defaults."""
+    seed: int = option(0)
+    """Seed of torch, numpy, the envs and the demonstrations."""
+    reward: str = option("coverage", choices=REWARD_PRESETS)
+    """Reward preset of the envs: the dense "coverage" (what the benchmark scores) rather than the study's
+    "paper", whose episode ends at the last goal marker. Its penalties were tried: docs/experiments.md."""
+    terminate_on_bound: bool = option(False)
+    """End the episode on a bound contact; by default it goes on, as ending it would be an exit from the
+    mostly negative GAIL reward (docs/experiments.md). The contact still costs the preset's bound penalty."""
+    terminate_on_exit: bool = False
+    """Keep the episode going after an exit landmark: the policy goes on to clean the next cell, as it must in
+    ``full_cabin`` (the study's separate tracking training ends there instead)."""
+    random_start: bool = option(True)
+    """Start each training episode at a random pose of the start cell, as the policy enters each new cell of
+    ``full_cabin`` (docs/experiments.md). The demonstrations keep the layout's start, where the plan
+    begins."""
+    coverage_patch: int = option(32, metavar="N")
+    """Cells across the observation's coverage patch of the floor still to clean (0: none, the study's
+    lidar-only observation, with which no policy tells a cleaned aisle from a dirty one; docs/experiments.md).
+    The ICM and the discriminator do not see it (``shaping_columns``)."""
+    coverage_patch_cell: float = option(0.125, metavar="M")
+    """Size of a patch cell in metres: 32 x 0.125 m is a 4 m window, fine enough to show the strips of floor
+    left along walls (docs/experiments.md)."""
+    max_steps: int | None = option(None)
+    """Episode step limit; None keeps each layout's own (1500 for both training cells)."""
+    hidden_dims: list[int] = field(default_factory=lambda: [64, 64])
+    """Actor and critic MLPs. Small: on a CPU the update dominates the iteration time."""
+    activation: str = "elu"
+    """Activation of the actor and critic MLPs (rsl-rl's name)."""
+    obs_normalization: bool = True
+    """Normalise the actor's and critic's inputs with running statistics: the lidar's one-hot tags are rare
+    and the velocities small, and normalised they weigh like the distances."""
+    init_noise_std: float = 1.0
+    """Initial std of the Gaussian policy."""
+    learning_rate_schedule: str = "fixed"
+    """"fixed" keeps PPO's learning rate, clip range and entropy coefficient; "linear" decays them over
+    ``iterations`` towards ``LINEAR_DECAY_FINAL``, as ML-Agents' default ``learning_rate_schedule`` does (the
+    study's Table 5.2 gives the *initial* learning rate). The schedule is a function of the iteration and
+    ``iterations``: a run resumed with other ``iterations`` follows the new total's."""
+    min_action_std: float = option(0.25)
+    """Lower clamp of the policy's std (rsl-rl's ``std_range``; 0 leaves it free): keeps the policy exploring
+    while the discriminator pushes the std down (docs/experiments.md)."""
+    algorithm: dict = option(
+        default_factory=lambda: {"entropy_coef": 0.03, "gail_strength": 0.02},
+        metavar="JSON",
+    )
+    """Further ``PPOCuriosityGail`` settings as JSON, such as {"gail_strength": 0.1}; the others keep the
+    study's Table 5.2/5.3 values. The entropy bonus is raised from 0.01 (the std collapsed) and the GAIL
+    strength lowered from 0.3 (the policy imitated and ignored the patch): docs/experiments.md."""
+    demo_episodes: int = option(4, metavar="N")
+    """Expert (boustrophedon) episodes recorded per training layout for GAIL; planner and env are
+    deterministic, so without ``demo_action_noise`` these are one trajectory repeated."""
+    demo_action_noise: float = option(0.0, metavar="STD")
+    """Std of the Gaussian noise added to the planner's executed actions while its own are recorded; 0:
+    noisy demonstrations made the policies worse (docs/experiments.md)."""
+    demo_max_steps: int | None = None
+    """Step limit of the demonstration episodes (None: the training ``max_steps``)."""
+    demo_layouts: int = option(8, metavar="N")
+    """With ``suite``: how many of its layouts (a sample drawn by ``seed``) the expert demonstrates, each
+    ``demo_episodes`` times from the layout's start."""
+    demonstrations: list[str] = option(default_factory=list, metavar="FILE")
+    """Existing demonstration ``.npz`` files to use instead of recording new ones."""
+    save_interval: int = option(50)
+    """Write a checkpoint every this many iterations (and after the last one)."""
+    validation_episodes: int = option(20, metavar="N")
+    """Episodes per training layout on which every checkpoint plays at the end of training, with seeds from
+    ``VALIDATION_SEED`` (``validation.csv``, panel (g) of ``curves.png``; 0: none). With ``suite``: episodes
+    in all, one on each layout of a sample of the suite drawn by ``VALIDATION_SEED``, from a random start (the
+    suites' protocol)."""
+    export: str = option("last", choices=("last", "best"))
+    """Which checkpoint ``policy.pt`` holds: "last", or "best" on validation (``validation_score``). The
+    results keep "last"; "best" would reorder the ablations (docs/experiments.md)."""
+    threads: int = option(1)
+    """torch threads: 1, as on a shared 2-core machine 2 threads spin waiting for each other
+    (docs/experiments.md); ``workers`` uses the other cores instead."""
+    workers: int = option(0, metavar="N")
+    """Cores the training uses (0: every core this process may run on): the single-robot envs step in that
+    many processes, and with 2 or more the ICM and the discriminator each train in a thread beside PPO. The
+    results do not depend on it."""
+
+    def __post_init__(self) -> None:
+        if self.ablation not in ABLATIONS:
+            raise ValueError(f"unknown ablation {self.ablation!r}; choose one of {', '.join(ABLATIONS)}")
+        if self.suite:
+            from cabinbench.layouts.suites import get_suite
+
+            size = len(get_suite(self.suite))  # an unknown suite: a LayoutError naming the valid ones
+            if self.layouts:
+                raise ValueError(f"train on layouts {self.layouts} or on suite {self.suite}, not both")
+            if not 1 <= self.demo_layouts <= size:
+                raise ValueError(
+                    f"demo_layouts must be 1 to {size} for suite {self.suite}, got {self.demo_layouts}"
+                )
+            if self.validation_episodes > size:
+                raise ValueError(f"validation_episodes must be at most {size} for suite {self.suite}")
+        elif not self.layouts:
+            self.layouts = list(CELL_LAYOUTS)
+        for name in (
+            "num_envs",
+            "num_steps_per_env",
+            "num_mini_batches",
+            "iterations",
+            "save_interval",
+            "threads",
+        ):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
+        if self.validation_episodes < 0:
+            raise ValueError(f"validation_episodes must be 0 or more, got {self.validation_episodes}")
+        if self.workers < 0:
+            raise ValueError(f"workers must be 0 (every core) or more, got {self.workers}")
+        if self.learning_rate_schedule not in LEARNING_RATE_SCHEDULES:
+            raise ValueError(
+                f"learning_rate_schedule must be one of {LEARNING_RATE_SCHEDULES}, got "
+                f"{self.learning_rate_schedule!r}"
+            )
+        if self.export not in ("last", "best"):
+            raise ValueError(f'export must be "last" or "best", got {self.export!r}')
+        if self.export == "best" and not self.validation_episodes:
+            raise ValueError(
+                'export="best" chooses on the validation episodes: validation_episodes must be positive'
+            )
+        if self.uses_gail and not self.demonstrations and self.demo_episodes < 1:
+            raise ValueError(f"{self.ablation} learns from demonstrations: demo_episodes must be positive")
+        check_algorithm_settings(self.algorithm)  # before any work: a typo would fail after the envs started
+
+    @property
+    def cores(self) -> int:
+        """The cores ``workers`` means."""
+        return self.workers or len(os.sched_getaffinity(0))
+
+    @property
+    def uses_gail(self) -> bool:
+        return ABLATIONS[self.ablation]["use_gail"]
+
+    @property
+    def env_kwargs(self) -> dict:
+        """Keyword arguments of every training env (``CoverageEnv``)."""
+        return {
+            "reward": self.reward,
+            "terminate_on_bound": self.terminate_on_bound,
+            "terminate_on_exit": self.terminate_on_exit,
+            "max_steps": self.max_steps,
+            "random_start": self.random_start,
+            "coverage_patch": self.coverage_patch,
+            "coverage_patch_cell": self.coverage_patch_cell,
+        }
+
+    @property
+    def policy_name(self) -> str:
+        """The baseline that runs the exported policy (``--baseline``): the ablation."""
+        return self.ablation
+
+    @property
+    def episode_options(self) -> dict:
+        """Further ``run_episode`` keywords of the validation episodes (a team's ``n_agents``)."""
+        return {}
+
+    @property
+    def obs_groups(self) -> dict | None:
+        """rsl-rl's observation groups of the actor and the critic; None: both see the policy observation."""
+        return None
+
+    def make_env(self):
+        """The training envs as an rsl-rl ``VecEnv``, their observation config and observation layout."""
+        from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
+
+        batched = BatchedCoverageEnv(
+            self.layouts,
+            self.num_envs,
+            seed=self.seed,
+            num_workers=self.cores,
+            suite=self.suite,
+            **self.env_kwargs,
+        )
+        example = batched.example_env
+        return RslRlVecEnv(batched), example.observation_config, example.observation_layout
+
+    def initialise(self, runner) -> None:
+        """Set the weights a new run starts from; here rsl-rl's random ones are kept."""
+
+    @property
+    def suite_version(self) -> int | None:
+        from cabinbench.layouts.suites import get_suite
+
+        return get_suite(self.suite).version if self.suite else None
+
+    @property
+    def trained_on(self) -> str:
+        """What the policy trained on, in words: ``cabin-v1-train (v1)`` or ``a320_cell +
+        a320_tracking_cell``."""
+        return f"{self.suite} (v{self.suite_version})" if self.suite else " + ".join(self.layouts)
+
+    @property
+    def demo_layout_names(self) -> list[str]:
+        """The layouts the expert demonstrates: the training layouts, or a sample of the suite drawn by
+        ``seed``."""
+        return suite_sample(self.suite, self.demo_layouts, self.seed) if self.suite else list(self.layouts)
+
+    @property
+    def validation_layouts(self) -> list[str]:
+        """The layouts every checkpoint is validated on: the training layouts (``validation_episodes`` each),
+        or a sample of the suite drawn by ``VALIDATION_SEED`` (one episode each)."""
+        if self.suite:
+            return suite_sample(self.suite, self.validation_episodes, VALIDATION_SEED)
+        return list(dict.fromkeys(self.layouts))
+
+    def to_dict(self) -> dict:
+        """Every field but ``workers``, the suite's version (``suite_version``, None without a suite) and the
+        ablation's ``REWARD_SIGNALS`` (``use_curiosity``, ``use_gail``): the leaderboard reads those from
+        ``config.json`` without importing this baseline (``cabinbench.training_records``)."""
+        values = {**dataclasses.asdict(self), "suite_version": self.suite_version, **ABLATIONS[self.ablation]}
+        del values["workers"]  # how the run was spread over cores, on which its results do not depend
+        if not self.suite:  # a run on layouts: its config.json reads as it did before suites existed
+            for name in SUITE_FIELDS:
+                del values[name]
+        return values
+
+    @classmethod
+    def from_dict(cls, values: dict) -> TrainConfig:
+        """The config of a ``config.json`` (the inverse of ``to_dict``); unknown fields are an error."""
+        values = {
+            key: value for key, value in values.items() if key not in (*REWARD_SIGNALS, "suite_version")
+        }
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(values) - known)
+        if unknown:
+            raise ValueError(f"unknown TrainConfig field(s) {unknown}; known: {sorted(known)}")
+        return cls(**values)
+
+
+SUITE_FIELDS = ("suite", "suite_version", "demo_layouts")
+"""What ``to_dict`` records of a run on a suite only."""
+CELL_LAYOUTS = ("a320_cell", "a320_tracking_cell")
+"""The default training layouts: the study's cleaning and tracking cells."""
+
+
+def suite_sample(suite: str, count: int, seed: int) -> list[str]:
+    """``count`` different layouts of ``suite``, drawn by ``seed``, in suite order."""
+    from cabinbench.layouts.suites import get_suite
+
+    names = get_suite(suite).layout_names
+    return [
+        names[index] for index in sorted(np.random.default_rng(seed).choice(len(names), count, replace=False))
+    ]
+
+
+LEARNING_RATE_SCHEDULES = ("fixed", "linear")
+LINEAR_DECAY_FINAL = {"learning_rate": 1.0e-10, "clip_param": 0.1, "entropy_coef": 1.0e-5}
+"""Where the "linear" schedule ends, at ``iterations``: ML-Agents' ``DecayedValue`` of the learning rate,
+epsilon and beta (ml-agents PR 4318)."""
+
+RESUMABLE_CHANGES = ("iterations", "threads", "save_interval", "export")
+"""Fields a resumed run may change (e.g. train further, or export another checkpoint); any other difference to
+the saved config is an error."""
+
+CONFIG_FILE, METRICS_FILE, CURVES_FILE, POLICY_FILE = "config.json", "metrics.csv", "curves.png", "policy.pt"
+VALIDATION_FILE, LOCK_FILE = "validation.csv", "train.lock"
+CHECKPOINT_DIR, DEMO_DIR, VALIDATION_DIR = "checkpoints", "demos", "validation"
+
+VALIDATION_SEED = 1_000_000
+"""Validation episode ``i`` uses seed ``VALIDATION_SEED + i``: not a seed the leaderboard plays (0-403,
+``results/make_results.sh``), so a policy is never judged (or, with ``export="best"``, chosen) on the episodes
+it is scored on."""
+
+
+def default_run_dir(config: TrainConfig, root: str | os.PathLike = "runs/train", name: str = "") -> Path:
+    """``runs/train/<name>__seed<S>``; the name defaults to the policy's (the ablation)."""
+    return Path(root) / f"{name or config.policy_name}__seed{config.seed}"
