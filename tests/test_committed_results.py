@@ -73,3 +73,11 @@ def test_no_committed_row_has_an_interval_over_identical_episodes_and_every_seed
         kept = sorted(path.name for path in (ROOT / "results" / "training" / baseline).glob("seed*"))
         every_seed = {"seed0 (shipped)", *kept} | ({"all seeds"} if kept else set())
         assert set(rows["policy"]) == every_seed, (layout, baseline, agents)
+
+
+def test_every_committed_figure_is_readable_at_its_natural_size():
+    from PIL import Image
+
+    for path in sorted((ROOT / "results" / "figures").glob("*.png")):
+        with Image.open(path) as image:
+            assert image.width <= 3000, f"{path.name} is {image.width} px wide: split it"

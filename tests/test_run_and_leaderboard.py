@@ -230,8 +230,8 @@ def test_leaderboard_is_reproducible(short_run, tmp_path):
         "leaderboard.csv",
         "uncovered.md",
         "uncovered.csv",
-        "figures/bars_coverage.png",
-        "figures/bars_time.png",
+        "figures/bars_coverage__a320_cell.png",
+        "figures/bars_time__a320_cell.png",
         "figures/coverage_time__a320_cell.png",
         "figures/trajectory__a320_cell__random_bounce__sequential__k1.png",
     } <= names

@@ -5,8 +5,8 @@
   seed's Fig. 5.11);
 - ``coverage_time__<layout>.png``: coverage over simulated time, one line per baseline (median
   over episodes, interquartile band);
-- ``bars_coverage.png`` and ``bars_time.png``: means with 95% interval error bars, grouped by
-  layout;
+- ``bars_coverage__<layout>.png`` and ``bars_time__<layout>.png``: means with 95% interval error
+  bars, one bar per baseline setting (a figure per layout keeps each readable at its size);
 - ``makespan_agents.png``: team makespan against the number of robots, one panel per layout, for
   the settings run with several K whose teams (K > 1) succeeded in every episode (a makespan cut
   short by the step limit measures the limit, not the team); a single robot that did not is a
@@ -104,30 +104,19 @@ def coverage_time_figure(
 
 
 def bar_figure(rows: list[dict], metric: str, ylabel: str, colours: dict, path: Path) -> None:
-    """Means with 95% interval error bars; layouts along x, one bar per baseline setting."""
-    layouts = sorted({row["layout"] for row in rows})
-    labels = list(colours)
-    width = 0.8 / len(labels)
-    figure = Figure(figsize=(max(6.4, 1.2 * len(layouts) * max(1, len(labels) / 2)), 4.0))
+    """Means with 95% interval error bars of one layout's rows, one bar per baseline setting."""
+    labels = [label for label in colours if any(row_label(row) == label for row in rows)]
+    figure = Figure(figsize=(max(6.4, 0.55 * len(labels) + 1.5), 4.0))
     axes = figure.subplots()
     for index, label in enumerate(labels):
-        chosen = {row["layout"]: row[metric] for row in rows if row_label(row) == label}
-        positions = [
-            layout_index + (index - (len(labels) - 1) / 2) * width
-            for layout_index, layout in enumerate(layouts)
-            if layout in chosen
-        ]
-        summaries = [chosen[layout] for layout in layouts if layout in chosen]
-        means = np.array([summary.mean for summary in summaries])
-        errors = np.nan_to_num(
-            np.array([[summary.mean - summary.low, summary.high - summary.mean] for summary in summaries]).T
-        )
-        axes.bar(positions, means, width, yerr=errors, capsize=3, label=label, color=colours[label])
-    axes.set_xticks(range(len(layouts)), layouts, rotation=20, ha="right")
+        summary = next(row[metric] for row in rows if row_label(row) == label)
+        error = np.nan_to_num([[summary.mean - summary.low], [summary.high - summary.mean]])
+        axes.bar([index], [summary.mean], 0.8, yerr=error, capsize=3, color=colours[label])
+    axes.set_xticks(range(len(labels)), labels, rotation=35, ha="right", fontsize=7)
     axes.set_ylabel(ylabel)
-    axes.set_title(f"{metric}: mean and 95% bootstrap interval", fontsize=10)
-    axes.legend(fontsize=8)
+    axes.set_title(f"{rows[0]['layout']}: {metric}, mean and 95% bootstrap interval", fontsize=10)
     axes.grid(axis="y", alpha=0.3)
+    figure.tight_layout()
     save_figure(figure, path)
 
 
@@ -231,10 +220,11 @@ def write_figures(groups: list[tuple[dict, pd.DataFrame]], rows: list[dict], fol
             layout, [group for group in groups if group[0]["layout"] == layout], colours, path
         )
         written.append(path)
-    for metric, ylabel in (("coverage", "coverage"), ("time", "time (s)")):
-        path = folder / f"bars_{metric}.png"
-        bar_figure(rows, metric, ylabel, colours, path)
-        written.append(path)
+    for layout in sorted({row["layout"] for row in rows}):
+        for metric, ylabel in (("coverage", "coverage"), ("time", "time (s)")):
+            path = folder / f"bars_{metric}__{safe_name(layout)}.png"
+            bar_figure([row for row in rows if row["layout"] == layout], metric, ylabel, colours, path)
+            written.append(path)
     if makespan_figure(groups, folder / "makespan_agents.png"):
         written.append(folder / "makespan_agents.png")
     return written
