@@ -2,15 +2,15 @@
 predictors, and corrected for testing many times.
 
 For every method on a suite and every difficulty measure, each hypothesis names its sign in
-advance (:data:`HYPOTHESES`: a harder layout gives lower coverage, a longer T90 and a lower headline
-score). Over the suite's layouts (each layout's mean over its episodes) we report Spearman's ρ of
-the measure with each predictor (:data:`PREDICTORS`: the study's normalised complexity, and the
-simple ones a reader would try first: coverable area, obstacle count, seat rows) and, for
-complexity, the partial ρ with coverable area held fixed (normalised complexity grows with area on
-these suites, so a raw ρ may only say "larger cabins are harder"). Each test is one-sided in the
-hypothesis's direction; Holm's correction runs over the whole family of tests on the suite. The
-finding sentence is generated from the adjusted p-values and may say that complexity does not
-predict beyond area.
+advance (:data:`HYPOTHESES`: a harder layout gives lower coverage and a longer T90). Over the
+suite's layouts (each layout's mean over its episodes) we report Spearman's ρ of the measure with
+each predictor (:data:`PREDICTORS`: the study's normalised complexity, and the simple ones a
+reader would try first: coverable area, obstacle count, seat rows) and, for complexity, the
+partial ρ with coverable area held fixed (normalised complexity grows with area on these suites,
+so a raw ρ may only say "larger cabins are harder"). Each test is one-sided in the hypothesis's
+direction; Holm's correction runs over the whole family of tests on the suite. The finding
+sentence is generated from the adjusted p-values and may say that complexity does not predict
+beyond area.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from cabinbench.layouts.complexity import layout_complexity
 from cabinbench.layouts.resolve import load_layout
 from cabinbench.stats import holm, one_sided, partial_spearman
 
-HYPOTHESES = {"coverage": -1, "t90": +1, "clean_score": -1}  # measure -> the sign a harder layout gives
+HYPOTHESES = {"coverage": -1, "t90": +1}  # measure -> the sign a harder layout gives
 PREDICTORS = ("complexity", "coverable_area", "obstacles", "seat_rows")
 CONTROL = "coverable_area"
 ALPHA = 0.05
@@ -129,7 +129,7 @@ def predictor_finding(table: pd.DataFrame, suite: str) -> str:
 
 def _pairs(table: pd.DataFrame) -> str:
     return "; ".join(
-        f"{row.method}'s {row.measure} (partial ρ = {row.rho:.2f}, p_Holm = {row.p_holm:.3f})"
+        f"{row.method}'s {row.measure} (partial ρ = {row.rho:.2f}, p_Holm = {max(row.p_holm, 0.001):.3f})"
         for row in table.itertuples()
     )
 
@@ -138,7 +138,9 @@ def predictor_markdown(table: pd.DataFrame) -> str:
     """The tests as a table: one row per method and measure, ρ for each predictor, the partial ρ."""
     if table.empty:
         return ""
-    header = ["method", "measure (sign)"] + [p.replace("_", " ") for p in PREDICTORS] + ["complexity | area"]
+    header = (
+        ["method", "measure (sign)"] + [p.replace("_", " ") for p in PREDICTORS] + ["complexity, area fixed"]
+    )
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for (method, measure), group in table.groupby(["method", "measure"], sort=False):
         plain = group[group["controlling_for"] == ""].set_index("predictor")
@@ -155,5 +157,6 @@ def predictor_markdown(table: pd.DataFrame) -> str:
 def _rho_cell(test) -> str:
     if np.isnan(test["rho"]):
         return "—"
-    text = f"{test['rho']:+.2f} (p_Holm {test['p_holm']:.3f}, n={test['n']})"
+    p_holm = "<0.001" if test["p_holm"] < 0.001 else f"{test['p_holm']:.3f}"
+    text = f"{test['rho']:+.2f} (p_Holm {p_holm}, n={test['n']})"
     return f"**{text}**" if test["p_holm"] < ALPHA else text

@@ -12,6 +12,7 @@ import pandas as pd
 from cabinbench.errors import LayoutError
 from cabinbench.layouts.suites import get_suite
 from cabinbench.layouts.suites import summary as suite_summary
+from cabinbench.leaderboard.predictors import predictor_finding
 from cabinbench.leaderboard.site_board import OWN_ENTRY, Entry
 from cabinbench.leaderboard.site_html import (
     baseline_page_name,
@@ -23,7 +24,7 @@ from cabinbench.leaderboard.site_html import (
     page,
     sortable_table,
 )
-from cabinbench.leaderboard.suites import SCORES, complexity_rows, finding, suite_rows
+from cabinbench.leaderboard.suites import SCORES, complexity_tests, suite_rows
 from cabinbench.leaderboard.table import layout_complexity_of, markdown_cell
 from cabinbench.records import safe_name
 
@@ -123,7 +124,7 @@ def suite_page(
         scored += [(row, source) for row in found]
         notes += left_out
         if source == OWN_ENTRY:
-            finding_text = finding(complexity_rows(found, episodes))
+            finding_text = predictor_finding(complexity_tests(found, episodes)[0], suite)
     every = pd.concat([episodes for _, episodes in boards], ignore_index=True)
     protocols, teams = every["protocol"], every["n_agents"].astype(int)
     body = [

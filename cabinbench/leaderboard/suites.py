@@ -27,16 +27,22 @@ from matplotlib import colormaps
 from matplotlib.figure import Figure
 
 from cabinbench.leaderboard.figures import save_figure
-from cabinbench.leaderboard.table import layout_complexity_of, markdown_cell, policy_of, row_label
+from cabinbench.leaderboard.predictors import (
+    CONTROL,
+    HYPOTHESES,
+    layout_features,
+    predictor_finding,
+    predictor_markdown,
+    predictor_tests,
+)
+from cabinbench.leaderboard.table import markdown_cell, policy_of, row_label
 from cabinbench.records import safe_name
 from cabinbench.stats import (
-    MIN_CORRELATION_PAIRS,
     Summary,
     distinct_episodes,
     iqm,
     performance_profile,
     probability_of_improvement,
-    spearman,
     stratified_bootstrap,
     stratified_difference,
     success_rate,
@@ -47,10 +53,6 @@ SCORES = {"coverage": ".3f", "path_efficiency": ".3f", "time": ".1f"}  # stratif
 PROFILES = {"coverage": (0.5, 0.8, 0.9, 0.95), "path_efficiency": (0.2, 0.4, 0.6)}  # levels in the table
 PROFILE_LEVELS = np.linspace(0.0, 1.0, 101)  # the figure's levels
 IMPROVEMENT_METRIC = "coverage"
-# difficulty measures correlated with complexity: per episode, t90 counts its whole time (the time
-# limit, a lower bound) when the episode never reached 90% coverage
-DIFFICULTY = ("t90", "path_efficiency", "coverage")
-COMPLEXITY = ("total", "normalized")
 GAP_SPLITS = {"train": "cabin-v1-train", "test": "cabin-v1-test", "ood": "cabin-v1-ood"}
 """The generalisation gap's splits: the training suite, its held-out test split, out of distribution."""
 GAP_METRIC = "coverage"
@@ -71,9 +73,7 @@ def suite_records(records: pd.DataFrame) -> pd.DataFrame:
 
 
 def episode_value(episodes: pd.DataFrame, metric: str) -> pd.Series:
-    """An episode's value of a difficulty measure (``t90`` censored at the episode's time)."""
-    if metric == "t90":
-        return episodes["t90"].astype(float).fillna(episodes["time"].astype(float))
+    """An episode's value of a measure (``t90``: NaN where the episode never reached 90%)."""
     return episodes[metric].astype(float)
 
 
@@ -147,27 +147,16 @@ def improvement_table(rows: list[dict], metric: str) -> dict[tuple[str, str], Su
     return table
 
 
-def complexity_rows(rows: list[dict], episodes: pd.DataFrame) -> list[dict]:
-    """Per baseline and difficulty measure: Spearman's ρ with each complexity over the layouts."""
-    complexity = {
-        layout: layout_complexity_of(group) for layout, group in episodes.groupby("layout", sort=True)
+def complexity_tests(rows: list[dict], episodes: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The predictor tests of one suite (:mod:`cabinbench.leaderboard.predictors`): each row's
+    per-layout means of every hypothesised measure (T90 over the episodes that reached 90 %), against
+    the layouts' features; (the tests, the features)."""
+    features = layout_features(episodes["layout"].unique())
+    measures = {
+        row_label(row): pd.DataFrame({measure: per_layout(row["cells"], measure) for measure in HYPOTHESES})
+        for row in rows
     }
-    result = []
-    for row in rows:
-        for metric in DIFFICULTY:
-            scores = per_layout(row["cells"], metric)
-            name = metric
-            if metric == "t90":  # how much of it is censored at the time limit
-                reached = pd.concat(row["cells"].values())["t90"].notna().mean()
-                name = f"t90 [reached {reached:.0%}]"
-            line = {"label": row_label(row), "metric": metric, "difficulty": name, "layouts": len(scores)}
-            line["scores"] = scores
-            for kind in COMPLEXITY:
-                x = [complexity[layout][kind] for layout in scores.index]
-                line[kind] = spearman(x, scores.to_numpy())
-                line[f"x_{kind}"] = x
-            result.append(line)
-    return result
+    return predictor_tests(measures, features), features
 
 
 def profile_figure(rows: list[dict], suite: str, path) -> None:
@@ -210,56 +199,29 @@ def improvement_figure(table: dict, labels: list[str], suite: str, path) -> None
     save_figure(figure, path)
 
 
-def complexity_figure(lines: list[dict], suite: str, path) -> None:
-    figure = Figure(figsize=(4.0 * len(DIFFICULTY), 3.4 * len(COMPLEXITY)))
-    grid = figure.subplots(len(COMPLEXITY), len(DIFFICULTY), squeeze=False)
-    labels = list(dict.fromkeys(line["label"] for line in lines))
-    for line in lines:
-        colour = colormaps["tab10"](labels.index(line["label"]) % 10)
-        for row, kind in enumerate(COMPLEXITY):
-            axes = grid[row][DIFFICULTY.index(line["metric"])]
-            axes.plot(
-                line[f"x_{kind}"],
-                line["scores"].to_numpy(),
-                "o",
-                markersize=3,
-                color=colour,
-                label=line["label"],
-            )
-            axes.set_xlabel(f"complexity ({kind})")
-            axes.set_ylabel(
-                line["metric"] + (" (s; never reached: its time)" if line["metric"] == "t90" else "")
-            )
-            axes.grid(alpha=0.3)
-    grid[0][0].legend(fontsize=7)
-    figure.suptitle(f"{suite}: navigation complexity against difficulty, one point per layout", fontsize=10)
+def complexity_figure(rows: list[dict], features: pd.DataFrame, suite: str, path) -> None:
+    """Each hypothesised measure against normalised complexity and against coverable area, one point
+    per layout and one colour per row."""
+    predictors = ("complexity", CONTROL)
+    figure = Figure(figsize=(3.6 * len(HYPOTHESES), 3.2 * len(predictors)))
+    grid = figure.subplots(len(predictors), len(HYPOTHESES), squeeze=False)
+    for index, row in enumerate(rows):
+        colour = colormaps["tab10"](index % 10)
+        for column, measure in enumerate(HYPOTHESES):
+            values = per_layout(row["cells"], measure)
+            for line, predictor in enumerate(predictors):
+                axes = grid[line][column]
+                x = features.reindex(values.index)[predictor]
+                axes.plot(x, values.to_numpy(), "o", markersize=3, color=colour, label=row_label(row))
+                axes.set_xlabel(
+                    predictor.replace("_", " ") + (" (normalised)" if predictor == "complexity" else " (m²)")
+                )
+                axes.set_ylabel(measure + (" (s, reached only)" if measure == "t90" else ""))
+                axes.grid(alpha=0.3)
+    grid[0][0].legend(fontsize=6)
+    figure.suptitle(f"{suite}: difficulty against complexity and area, one point per layout", fontsize=10)
+    figure.tight_layout()
     save_figure(figure, path)
-
-
-def finding(lines: list[dict]) -> str:
-    """The complexity finding in words, from the intervals: where ρ's interval excludes 0."""
-    if all(np.isnan(line[kind].low) for line in lines for kind in COMPLEXITY):
-        return (
-            f"Finding: too few layouts (under {MIN_CORRELATION_PAIRS}) or no variation for an interval on ρ: "
-            "this suite cannot tell whether complexity predicts difficulty."
-        )
-    clear = [
-        f"{line['label']}'s {line['difficulty']} (ρ = {line[kind].mean:.2f} with {kind} complexity)"
-        for line in lines
-        for kind in COMPLEXITY
-        if not np.isnan(line[kind].low) and (line[kind].low > 0 or line[kind].high < 0)
-    ]
-    if not clear:
-        return (
-            "Finding: no rank correlation between navigation complexity and difficulty has an interval "
-            "that excludes zero on this suite: complexity does not predict difficulty here."
-        )
-    return (
-        "Finding: complexity predicts difficulty where the interval excludes zero: "
-        + "; ".join(clear)
-        + ". Total complexity grows with a layout's size, and so do times and time limits (a t90 that "
-        "was rarely reached is mostly the time limit); the normalised complexity is the size-free test."
-    )
 
 
 def suite_part(suite: str, episodes: pd.DataFrame, folder) -> tuple[list[str], list]:
@@ -272,7 +234,7 @@ def suite_part(suite: str, episodes: pd.DataFrame, folder) -> tuple[list[str], l
     figures = [folder / f"suite__{name}__profiles.png", folder / f"suite__{name}__improvement.png"]
     figures.append(folder / f"suite__{name}__complexity.png")
     table = improvement_table(rows, IMPROVEMENT_METRIC)
-    complexity = complexity_rows(rows, episodes)
+    tests, features = complexity_tests(rows, episodes)
     lines = [
         f"#### Suite `{suite}`",
         "",
@@ -282,15 +244,15 @@ def suite_part(suite: str, episodes: pd.DataFrame, folder) -> tuple[list[str], l
         "",
         *_improvement_lines(table, labels, figures[1].name),
         "",
-        *_complexity_lines(complexity, figures[2].name),
+        *_complexity_lines(tests, figures[2].name),
         "",
-        finding(complexity),
+        predictor_finding(tests, suite),
     ]
     if notes:
         lines += ["", "Notes:", "", *(f"- {note}" for note in notes)]
     profile_figure(rows, suite, figures[0])
     improvement_figure(table, labels, suite, figures[1])
-    complexity_figure(complexity, suite, figures[2])
+    complexity_figure(rows, features, suite, figures[2])
     return lines, figures
 
 
@@ -358,24 +320,17 @@ def _improvement_lines(table: dict, labels: list[str], figure: str) -> list[str]
     return lines
 
 
-def _complexity_lines(complexity: list[dict], figure: str) -> list[str]:
-    """Spearman's ρ between the layouts' complexity and each baseline's per-layout difficulty."""
-    lines = [
-        "Does navigation complexity predict difficulty? Spearman's ρ over the suite's layouts between each "
-        "layout's complexity and the baseline's per-layout score, with a bootstrap 95% interval over layouts "
-        "(t90: an episode that never reached 90% counts its whole time, a lower bound; figure "
-        f"`{figure}`):",
+def _complexity_lines(tests: pd.DataFrame, figure: str) -> list[str]:
+    """The predictor tests as a table (figure ``figure``)."""
+    return [
+        "Does navigation complexity predict difficulty? Each measure's hypothesis names its sign in "
+        "advance (harder: lower coverage, longer T90 among the episodes that reach 90 %); Spearman's ρ "
+        "over the suite's layouts with each predictor, and with complexity once coverable area is held "
+        "fixed (partial ρ); "
+        f"figure `{figure}`:",
         "",
-        "| baseline | difficulty | layouts | ρ with total complexity | ρ with normalised complexity |",
-        "|---|---|---:|---:|---:|",
+        predictor_markdown(tests),
     ]
-    for line in complexity:
-        lines.append(
-            f"| {line['label']} | {line['difficulty']} | {line['layouts']} | "
-            + " | ".join(markdown_cell(line[kind], ".2f", bounds=True) for kind in COMPLEXITY)
-            + " |"
-        )
-    return lines
 
 
 def gap_rows(records: pd.DataFrame) -> list[dict]:
