@@ -9,13 +9,17 @@ Ctrl-C as ``interrupted``, exit status 130, where the command has nothing better
 from __future__ import annotations
 
 import argparse
+import contextlib
 import functools
 import json
+import os
 import sys
-from collections.abc import Callable
+import tempfile
+import warnings
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from cabinbench.errors import EXIT_INTERRUPTED, EXIT_USAGE, UserError
+from cabinbench.errors import EXIT_INTERRUPTED, EXIT_USAGE, UsageError, UserError
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -41,6 +45,24 @@ def user_errors(main: Callable[[list[str] | None], int]) -> Callable[[list[str] 
             return EXIT_INTERRUPTED
 
     return checked
+
+
+@contextlib.contextmanager
+def warnings_as_lines(category: type[Warning]) -> Iterator[None]:
+    """Inside the block each warning of ``category`` is one line on stderr, ``warning: ...``, every
+    time it is raised (a skipped record, named by file and line, is the user's to fix)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", category)
+        show = warnings.showwarning
+
+        def one_line(message, kind, *rest, **options):
+            if issubclass(kind, category):
+                print(f"warning: {message}", file=sys.stderr)
+            else:
+                show(message, kind, *rest, **options)
+
+        warnings.showwarning = one_line  # catch_warnings puts the original back
+        yield
 
 
 def positive_int(text: str) -> int:
@@ -88,18 +110,22 @@ def json_object(text: str) -> dict:
 
 
 def output_folder(text: str) -> Path:
-    """argparse type: a folder that exists or can be created (no file in the way)."""
+    """argparse type: a folder that exists or can be created (no file in the way), and that this
+    process can write in (tried, not inferred from permissions: root may write where the mode bits
+    say no, and nobody writes under /proc)."""
     path = Path(text)
     for part in (path, *path.parents):
         if part.exists():
             if not part.is_dir():
                 raise argparse.ArgumentTypeError(f"{part} is a file, not a folder: give a folder")
+            _check_writable(part, text)
             break
     return path
 
 
 def output_file(*suffixes: str) -> Callable[[str], Path]:
-    """argparse type: a file to write, named with one of ``suffixes``, in a folder that exists."""
+    """argparse type: a file to write, named with one of ``suffixes``, in a folder that exists and
+    that this process can write in (see :func:`output_folder`)."""
 
     def check(text: str) -> Path:
         path = Path(text)
@@ -109,6 +135,29 @@ def output_file(*suffixes: str) -> Callable[[str], Path]:
             raise argparse.ArgumentTypeError(f"{text!r} is a folder: give a file name")
         if not path.parent.is_dir():
             raise argparse.ArgumentTypeError(f"{text!r}: no folder {path.parent}; create it first")
+        _check_writable(path.parent, text)
         return path
 
     return check
+
+
+def checked_output(option: str, check: Callable[[str], Path], text: str) -> Path:
+    """``check(text)`` (:func:`output_folder` or an :func:`output_file`) for a path argparse did not
+    check itself (a default used by only some actions, one of several values), its complaint a
+    :class:`UsageError` naming ``option``."""
+    try:
+        return check(text)
+    except argparse.ArgumentTypeError as error:
+        raise UsageError(f"{option}: {error}") from None
+
+
+def _check_writable(folder: Path, given: str) -> None:
+    """Create and remove a file in ``folder``; a folder that refuses it is the user's to change."""
+    try:
+        descriptor, probe = tempfile.mkstemp(prefix=".cabinbench-probe-", dir=folder)
+    except OSError as error:
+        raise argparse.ArgumentTypeError(
+            f"{given!r}: cannot write in {folder} ({error.strerror}); give a folder you can write in"
+        ) from None
+    os.close(descriptor)
+    os.unlink(probe)

@@ -46,6 +46,7 @@ import os
 import re
 import subprocess
 import warnings
+import zipfile
 from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import lru_cache
@@ -59,7 +60,8 @@ from cabinbench.layouts.complexity import layout_complexity
 from cabinbench.layouts.fields import RESOLUTION
 from cabinbench.layouts.model import Layout
 from cabinbench.layouts.resolve import load_layout
-from cabinbench.metrics import CURVE_STRIDE
+from cabinbench.metrics import CURVE_STRIDE, METRICS, RATES, REACH_TIMES, TEAM_METRICS
+from cabinbench.values import is_real_number, is_whole_number
 from cabinbench.version import __version__
 
 if TYPE_CHECKING:
@@ -295,27 +297,121 @@ def record_files(paths_or_dirs: str | os.PathLike | Iterable[str | os.PathLike])
     return files
 
 
+class RecordWarning(UserWarning):
+    """A record or a trajectory file that cannot be used; it is skipped, the others are read."""
+
+
+LATER_FIELDS = ("suite", "start")  # fields of RECORD_FIELDS that records written before them lack
+
+
+def metric_problem(name: str, value) -> str | None:
+    """What is wrong with a record's value of metric ``name`` (:mod:`cabinbench.metrics`), or None."""
+    if name in RATES:
+        return None if isinstance(value, bool) else "not true or false"
+    if name == "path_lengths":  # one per robot
+        return None if isinstance(value, list) and all(map(_number, value)) else "not a list of numbers >= 0"
+    if value is None and name in REACH_TIMES:  # never reached
+        return None
+    return None if _number(value) else "not a number >= 0"
+
+
+def _number(value) -> bool:
+    """A finite number >= 0, as every metric's values are."""
+    return is_real_number(value) and value >= 0
+
+
+def record_problem(record) -> str | None:
+    """What makes a line's JSON value unusable as a record, or None: not an object, a field or metric
+    missing, a metric's value of the wrong kind, text that is not Unicode (a lone surrogate: a name
+    read from a file name in another encoding, which no report can write)."""
+    if not isinstance(record, dict):
+        return "not a JSON object"
+    team = is_whole_number(record.get("n_agents")) and record["n_agents"] > 1
+    for name in (*RECORD_FIELDS, *METRICS, *(TEAM_METRICS if team else ())):
+        if name not in record and name not in LATER_FIELDS:
+            return f"field {name!r} missing"
+    for name in (*METRICS, *(TEAM_METRICS if team else ())):
+        problem = metric_problem(name, record[name])
+        if problem:
+            return f"{name} {json.dumps(record[name])[:40]} is {problem}"
+    try:
+        json.dumps(record, ensure_ascii=False).encode("utf-8")
+    except UnicodeEncodeError as error:
+        text = error.object[error.start : error.end]
+        return f"text that is not Unicode ({text!r}: a name from a file name in another encoding)"
+    return None
+
+
 def read_records(paths_or_dirs: str | os.PathLike | Iterable[str | os.PathLike]) -> pd.DataFrame:
-    """Every record of the given files and folders as a DataFrame, one row per episode, in file
-    order; the column ``source`` names the file. A truncated last line (a run killed mid-write) is
-    skipped with a warning; a bad line anywhere else raises ``ValueError``."""
+    """Every usable record of the given files and folders as a DataFrame, one row per episode, in
+    file order; the column ``source`` names the file. A line that is not a record
+    (:func:`record_problem`), and a record whose trajectory its ``.npz`` lacks (or that does not
+    open), is skipped with a :class:`RecordWarning` naming the file and the line; a truncated last
+    line (a run killed mid-write) is skipped so too."""
     import pandas as pd  # here, not at the top: 0.4 s of the start-up of commands that only write records
 
     rows = []
     for path in record_files(paths_or_dirs):
-        lines = path.read_text(encoding="utf-8").splitlines()
-        for number, line in enumerate(lines, start=1):
-            if not line.strip():
-                continue
+        found = []
+        for number, line, last in _lines(path):
             try:
                 record = json.loads(line)
             except json.JSONDecodeError as error:
-                if number == len(lines):
-                    warnings.warn(f"{path}:{number}: skipping a truncated last line ({error})", stacklevel=2)
+                if last:
+                    _skip(f"{path}:{number}: skipping a truncated last line ({error})")
                     continue
-                raise ValueError(f"{path}:{number}: not a JSON record ({error})") from None
-            rows.append({**record, "source": str(path)})
+                problem = f"not a JSON record ({error})"
+            else:
+                problem = record_problem(record)
+            if problem:
+                _skip(f"{path}:{number}: {problem}; skipping it")
+            else:
+                found.append((number, record))
+        rows += [{**record, "source": str(path)} for record in _with_trajectories(path, found)]
     return pd.DataFrame(rows)
+
+
+def _lines(path: Path) -> list[tuple[int, str, bool]]:
+    """(number, text, whether it is an unterminated last line) of each line of a records file that
+    holds something; a line that is not UTF-8 is left out with a warning."""
+    data = path.read_bytes()
+    lines = data.split(b"\n")
+    numbered = []
+    for number, line in enumerate(lines, start=1):
+        try:
+            text = line.decode("utf-8")
+        except UnicodeDecodeError as error:
+            _skip(f"{path}:{number}: not UTF-8 text ({error.reason}); skipping it")
+            continue
+        if text.strip():
+            numbered.append((number, text, number == len(lines)))
+    return numbered
+
+
+def _with_trajectories(path: Path, found: list[tuple[int, dict]]) -> list[dict]:
+    """The records of ``found`` whose trajectory the ``.npz`` beside ``path`` holds."""
+    if not found:
+        return []
+    try:
+        with np.load(trajectory_path(path)) as stored:
+            keys = set(stored.files)
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as error:
+        _skip(
+            f"{trajectory_path(path)}: cannot read it ({error}); skipping the {len(found)} records of {path}"
+        )
+        return []
+    kept = []
+    for number, record in found:
+        if f"episode{record['episode']}_pass_count" in keys:
+            kept.append(record)
+        else:
+            where = trajectory_path(path).name
+            _skip(f"{path}:{number}: episode {record['episode']} has no trajectory in {where}; skipping it")
+    return kept
+
+
+def _skip(message: str) -> None:
+    warnings.warn(message, RecordWarning, stacklevel=3)
 
 
 @dataclass

@@ -46,7 +46,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from cabinbench.metrics import METRICS, REACH_TIMES, TEAM_METRICS
+from cabinbench.metrics import METRICS, RATES, REACH_TIMES, TEAM_METRICS
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -55,7 +55,6 @@ CONFIDENCE = 0.95
 RESAMPLES = 9_999
 BOOTSTRAP_SEED = 0
 MIN_CORRELATION_PAIRS = 10  # fewer pairs: a rank correlation without interval (see spearman)
-RATES = ("success", "goals_reached")  # booleans per episode: a rate with a Wilson interval
 # what an episode's outcome is: every metric but the machine's wall-clock time
 OUTCOME = tuple(name for name in (*METRICS, *TEAM_METRICS) if name != "wall_time")
 

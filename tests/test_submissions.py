@@ -6,6 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from cabinbench.commands import leaderboard, run
@@ -75,11 +76,16 @@ def test_a_plugin_submission_is_filed_shown_and_verified(plugin, own_runs, tmp_p
     assert leaderboard.main(common) == 0
     assert "| spinner (submission, unverified) |" in (out / "leaderboard.md").read_text()
 
+    every = len(json.loads(filed.read_text())["records"])
     assert leaderboard.main([*common, "--verify", str(filed), "--episodes", "3"]) == 0
-    assert submissions.status(filed, json.loads(filed.read_text())) == "verified (3)"
+    assert submissions.status(filed, json.loads(filed.read_text())) == f"unverified (3 of {every} replayed)"
+    assert leaderboard.main([*common, "--verify", str(filed)]) == 0  # every episode, by default
+    assert (
+        submissions.status(filed, json.loads(filed.read_text())) == f"verified ({every} of {every} replayed)"
+    )
     assert leaderboard.main([*common, "--site", str(tmp_path / "site")]) == 0
     index = (tmp_path / "site" / "index.html").read_text()
-    assert index.count("submission, verified (3)") == len(CLASSIC.layout_names)
+    assert index.count(f"submission, verified ({every} of {every} replayed)") == len(CLASSIC.layout_names)
     page = (tmp_path / "site" / "baselines" / "spinner.html").read_text()
     assert "Turns on the spot." in page and "spinner_pkg:Spinner" in page
 
@@ -95,15 +101,28 @@ def test_verification_catches_a_tampered_record(plugin, tmp_path, capsys, monkey
     tampered.write_text(json.dumps(body))
     folder = tmp_path / "submissions"
     filed = submissions.add(tampered, folder)
-    every = str(len(body["records"]))
     verify = ["--runs", str(root / "runs"), "--submissions", str(folder), "--verify", str(filed)]
-    assert leaderboard.main([*verify, "--episodes", every]) == 1
+    # a partial replay that misses the changed record matches, and still does not verify the file
+    assert leaderboard.main([*verify, "--episodes", "3", "--seed", str(seed_missing(body, 7, 3))]) == 0
+    assert "not verified" in capsys.readouterr().out
+    assert submissions.status(filed, body) == f"unverified (3 of {len(body['records'])} replayed)"
+    assert leaderboard.main(verify) == 1  # every episode: the changed one among them
     record = body["records"][7]
     assert (
         f"{record['layout']} seed {record['seed'] + record['episode']}: coverage submitted"
         in capsys.readouterr().out
     )
     assert submissions.status(filed, body) == "unverified (replay differs)"
+
+
+def seed_missing(body: dict, index: int, episodes: int) -> int:
+    """A seed of --verify's choice of ``episodes`` episodes that leaves out record ``index``."""
+    size = len(body["records"])
+    return next(
+        seed
+        for seed in range(100)
+        if index not in np.random.default_rng(seed).choice(size, size=episodes, replace=False)
+    )
 
 
 def rewrite(body: dict, change) -> dict:

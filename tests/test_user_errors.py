@@ -15,6 +15,137 @@ from PIL import Image
 ROOT = Path(__file__).resolve().parents[1]
 RUN = ["run", "--baseline", "random_bounce", "--layout", "a320_cell", "--episodes", "1", "--max-steps", "10"]
 
+UNWRITABLE = "/sys/kernel"  # a folder nobody may create a file in, root included (chmod does not stop root)
+NOWHERE = "/proc/cabinbench"  # under a folder nobody may create a folder in
+SUITE_RUN = ["run", "--baseline", "random_bounce", "--suite", "classic", "--episodes-per-layout", "1"]
+CANNOT_WRITE = "give a folder you can write in"
+# Every output path, checked before the work starts: an unwritable folder, a file or folder in the way,
+# a missing folder (issue 45). Nothing is run or written first: a submission is not lost after the run.
+OUTPUT_CASES = {
+    "run: --out in an unwritable folder": (
+        [*RUN, "--out", f"{UNWRITABLE}/runs"],
+        ["argument --out", CANNOT_WRITE],
+    ),
+    "run: --out under /proc": (
+        [*RUN, "--out", f"{NOWHERE}/runs"],
+        ["argument --out", "cannot write in /proc"],
+    ),
+    "run: --render in an unwritable folder": (
+        [*RUN, "--render", f"{UNWRITABLE}/first.png"],
+        ["argument --render", f"cannot write in {UNWRITABLE}", CANNOT_WRITE],
+    ),
+    "run: --render is a folder": ([*RUN, "--render", "picture.png"], ["argument --render", "is a folder"]),
+    "run: --submission in an unwritable folder": (
+        [*SUITE_RUN, "--submission", f"{UNWRITABLE}/s.json"],
+        ["argument --submission", f"cannot write in {UNWRITABLE}"],
+    ),
+    "run: --submission is a folder": (
+        [*SUITE_RUN, "--submission", "submission.json"],
+        ["argument --submission", "'submission.json' is a folder: give a file name"],
+    ),
+    "run: --submission into a missing folder": (
+        [*SUITE_RUN, "--submission", "missing/s.json"],
+        ["argument --submission", "no folder missing; create it first"],
+    ),
+    "run: --layouts beyond the suite": (
+        [*SUITE_RUN, "--layouts", "1000"],
+        ["--layouts 1000: suite classic has 7 layouts; give at most 7"],
+    ),
+    "leaderboard: --out in an unwritable folder": (
+        ["leaderboard", "--out", f"{UNWRITABLE}/results"],
+        ["--out:", f"cannot write in {UNWRITABLE}"],
+    ),
+    "leaderboard: --site in an unwritable folder": (
+        ["leaderboard", "--site", f"{UNWRITABLE}/site"],
+        ["argument --site", f"cannot write in {UNWRITABLE}"],
+    ),
+    "leaderboard: --site is a file": (
+        ["leaderboard", "--site", "file.txt"],
+        ["argument --site", "file.txt is a file"],
+    ),
+    "leaderboard: --add of a folder": (
+        ["leaderboard", "--add", "submission.json"],
+        ["submission.json: is a folder; give the submission file"],
+    ),
+    "leaderboard: --verify of a folder": (
+        ["leaderboard", "--verify", "submission.json"],
+        ["submission.json: is a folder; give the submission file"],
+    ),
+    "leaderboard: --add of a submission with NaN": (
+        ["leaderboard", "--add", "nan.json"],
+        ["nan.json: NaN is not a JSON number", "must be finite"],
+    ),
+    "leaderboard: --verify of a submission with NaN": (
+        ["leaderboard", "--verify", "nan.json"],
+        ["nan.json: NaN is not a JSON number"],
+    ),
+    "leaderboard: --episodes without --verify": (
+        ["leaderboard", "--episodes", "3"],
+        ["--episodes goes with --verify"],
+    ),
+    "layouts: export into an unwritable folder": (
+        ["layouts", "export", "a320_cell", f"{UNWRITABLE}/maps"],
+        ["argument out_dir", f"cannot write in {UNWRITABLE}"],
+    ),
+    "layouts: export under /proc": (
+        ["layouts", "export", "a320_cell", f"{NOWHERE}/maps"],
+        ["argument out_dir", "cannot write in /proc"],
+    ),
+    "layouts: export at a resolution too fine for the machine": (
+        ["layouts", "export", "a320_cell", "maps", "--resolution", "0.00001"],
+        [
+            "--resolution 1e-05: a320_cell",
+            "px and needs about",
+            "GiB allowed on this machine",
+            "coarser --resolution",
+        ],
+    ),
+    "complexity: --png in an unwritable folder": (
+        ["complexity", "a320_cell", "--png", f"{UNWRITABLE}/map.png"],
+        ["argument --png", f"cannot write in {UNWRITABLE}"],
+    ),
+    "suites: --png in an unwritable folder": (
+        ["suites", "--png", "classic", f"{UNWRITABLE}/sheet.png"],
+        ["--png:", f"cannot write in {UNWRITABLE}"],
+    ),
+    "suites: --png into a missing folder": (
+        ["suites", "--png", "classic", "missing/sheet.png"],
+        ["--png: 'missing/sheet.png': no folder missing"],
+    ),
+    "suites: --png is a folder": (["suites", "--png", "classic", "picture.png"], ["--png:", "is a folder"]),
+    "paper: --out in an unwritable folder": (
+        ["paper", "--out", f"{UNWRITABLE}/paper.md"],
+        ["argument --out", f"cannot write in {UNWRITABLE}"],
+    ),
+    "paper: --out into a missing folder": (
+        ["paper", "--out", "missing/paper.md"],
+        ["argument --out", "no folder missing"],
+    ),
+    "paper: a placeholder nothing fills": (
+        [
+            "paper",
+            "--results",
+            str(ROOT / "results"),
+            "--template",
+            "unknown_placeholder.md",
+            "--out",
+            "paper.md",
+        ],
+        [
+            "--template: unknown_placeholder.md has the placeholder(s) {{results_table}}",
+            "use {{layouts_table}}",
+        ],
+    ),
+    "building_maps: into an unwritable folder": (
+        ["building_maps", f"{UNWRITABLE}/maps"],
+        ["argument out", f"cannot write in {UNWRITABLE}"],
+    ),
+    "building_maps: under a file": (
+        ["building_maps", "file.txt/maps"],
+        ["argument out", "file.txt is a file"],
+    ),
+}
+
 # name: (argv after `python -m cabinbench.`, fragments the one stderr line must hold)
 CASES = {
     "run: unknown baseline": (
@@ -107,7 +238,7 @@ CASES = {
             "map_huge": (
                 "too large for the machine",
                 "image",
-                ["13000 x 13000 px", "more than this machine's"],
+                ["13000 x 13000 px", "GiB allowed on this machine"],
             ),
         }.items()
     },
@@ -190,11 +321,7 @@ CASES = {
     "suites: --png of another format": (["suites", "--png", "classic", "sheet.txt"], ["--png", ".png"]),
     "leaderboard: no such folder": (["leaderboard", "--runs", "nope"], ["--runs", "no folder nope"]),
     "leaderboard: no records": (["leaderboard", "--runs", "layouts"], ["--runs", "no records in layouts"]),
-    "leaderboard: a bad record": (
-        ["leaderboard", "--runs", "bad_runs", "--out", "out"],
-        ["--runs", "bad_runs/broken.jsonl:1: not a JSON record", "fix or remove that file"],
-    ),
-    "leaderboard: --out is a file": (["leaderboard", "--out", "file.txt"], ["argument --out", "file.txt"]),
+    "leaderboard: --out is a file": (["leaderboard", "--out", "file.txt"], ["--out: file.txt is a file"]),
     "paper: no leaderboard": (
         ["paper", "--results", "layouts", "--out", "paper.md"],
         ["--results", "leaderboard.md is missing"],
@@ -206,7 +333,7 @@ CASES = {
     "paper: unknown option": (["paper", "--bogus"], ["unrecognized arguments: --bogus"]),
     "paper: no folder for the default --out": (
         ["paper", "--results", str(ROOT / "results"), "--template", str(ROOT / "paper" / "template.md")],
-        ["--out: no folder paper", "give --out FILE.md"],
+        ["--out: 'paper/paper.md': no folder paper; create it first"],
     ),
     "bench: bad step count": (["bench", "--steps", "0"], ["argument --steps", ">= 1"]),
     "train: unknown baseline": (["train", "--baseline", "nope"], ["unknown baseline 'nope'", "ppo_gail"]),
@@ -261,6 +388,7 @@ CASES = {
         ["train", "--baseline", "ppo", "--executor", "ray"],
         ["--executor and --address run the seeds of --seeds"],
     ),
+    **OUTPUT_CASES,
 }
 
 
@@ -274,8 +402,12 @@ def write_inputs(folder: Path) -> None:
     (folder / "layouts" / "bad.yaml").write_text("kind: maze\n")
     (folder / "layouts" / "room.yaml").write_text((ROOT / "layouts" / "paper_matrix_a.yaml").read_text())
     write_ros_maps(folder)
-    (folder / "bad_runs").mkdir()
-    (folder / "bad_runs" / "broken.jsonl").write_text("{not json\n{}\n")
+    (folder / "picture.png").mkdir()
+    (folder / "submission.json").mkdir()
+    (folder / "nan.json").write_text(
+        '{"format": "cabinbench-submission/1", "records": [{"coverage": NaN}]}\n'
+    )
+    (folder / "unknown_placeholder.md").write_text("# Paper\n\n{{leaderboard_table}}\n\n{{results_table}}\n")
 
 
 def write_ros_maps(folder: Path) -> None:

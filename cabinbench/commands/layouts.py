@@ -16,19 +16,25 @@ goals and the start are not part of a ROS map and are not written.
 from __future__ import annotations
 
 import json
+import math
 import sys
+from pathlib import Path
 
 from cabinbench.cli import ArgumentParser, output_folder, positive_number, user_errors
-from cabinbench.errors import EXIT_USAGE, LayoutError
+from cabinbench.errors import EXIT_USAGE, LayoutError, UsageError
 from cabinbench.layouts.complexity import layout_summary
 from cabinbench.layouts.load import available_layouts, layout_search_path
 from cabinbench.layouts.model import LAYOUT_PATH_VARIABLE
 from cabinbench.layouts.resolve import load_layout
 from cabinbench.layouts.rosmap import write_map
+from cabinbench.memory import too_much_memory
 
 # 1 cm: a polygon layout's walls move at most half a centimetre onto the pixel edges, which keeps its
 # coverable area within 1% (at 5 cm a legroom gap can lose the robot's width)
 EXPORT_RESOLUTION = 0.01
+EXPORT_BYTES_PER_PIXEL = (
+    41  # peak memory of an export, measured: the pixel centres' coordinates and the tests
+)
 COLUMNS = (  # title, width, the row's field and its number format
     ("name", 20, "name", ""),
     ("kind", 9, "kind", ""),
@@ -56,6 +62,26 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def export_map(name: str, folder: Path, resolution: float | None) -> int:
+    """Write the layout ``name`` as a ROS map into ``folder``, its raster's memory checked first."""
+    layout = load_layout(name)
+    resolution = resolution or (
+        layout.raster.map_resolution if layout.raster is not None else EXPORT_RESOLUTION
+    )
+    xmin, ymin, xmax, ymax = layout.extent
+    pixels = math.ceil((xmax - xmin) / resolution) * math.ceil((ymax - ymin) / resolution)
+    problem = too_much_memory(pixels * EXPORT_BYTES_PER_PIXEL)
+    if problem:
+        raise UsageError(
+            f"--resolution {resolution:g}: {layout.name} ({xmax - xmin:.1f} x {ymax - ymin:.1f} m) at "
+            f"{resolution:g} m a pixel is {pixels:,} px and {problem}; give a coarser --resolution "
+            f"(the default is {EXPORT_RESOLUTION})"
+        )
+    for path in write_map(folder, layout.name, layout.floor_at(resolution), resolution, layout.origin):
+        print(path)
+    return 0
+
+
 @user_errors
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(
@@ -73,15 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     if args.command == "export":
-        layout = load_layout(args.layout)
-        resolution = args.resolution or (
-            layout.raster.map_resolution if layout.raster is not None else EXPORT_RESOLUTION
-        )
-        for path in write_map(
-            args.out_dir, layout.name, layout.floor_at(resolution), resolution, layout.origin
-        ):
-            print(path)
-        return 0
+        return export_map(args.layout, args.out_dir, args.resolution)
     problems = [
         f"error: {LAYOUT_PATH_VARIABLE} names {folder}, which is not a folder: fix or remove that entry"
         for folder in layout_search_path()

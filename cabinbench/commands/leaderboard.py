@@ -38,11 +38,20 @@ submission is refused; 1 when a verification finds a metric that differs.
 from __future__ import annotations
 
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
 
-from cabinbench.cli import ArgumentParser, non_negative_int, output_folder, positive_int, user_errors
+from cabinbench.cli import (
+    ArgumentParser,
+    checked_output,
+    non_negative_int,
+    output_folder,
+    positive_int,
+    user_errors,
+    warnings_as_lines,
+)
 from cabinbench.errors import UsageError
 from cabinbench.leaderboard.ablation import ablation_csv, ablation_figure, ablation_markdown, ablation_rows
 from cabinbench.leaderboard.figures import training_figures, write_figures
@@ -59,47 +68,25 @@ from cabinbench.leaderboard.table import (
 )
 from cabinbench.leaderboard.teams import team_rows, teams_csv, teams_section
 from cabinbench.leaderboard.uncovered import uncovered_csv, uncovered_markdown, uncovered_rows
-from cabinbench.records import read_records, with_current_complexity
+from cabinbench.records import RecordWarning, read_records, with_current_complexity
 
 
-def records_in(folder: str, option: str) -> pd.DataFrame:
-    """The records of a folder (empty when it does not exist), with each layout's complexity as it is
-    now (:func:`~cabinbench.records.with_current_complexity`); a bad record is a user error."""
-    if not Path(folder).is_dir():
-        return pd.DataFrame()
-    try:
-        return with_current_complexity(read_records(folder))
-    except ValueError as error:
-        raise UsageError(f"{option}: {error}; fix or remove that file") from None
+@dataclass
+class Inputs:
+    """What the tables and the site are built from: the records of ``--runs`` and of
+    ``--ablation-runs`` (``every``: both), grouped into the classic table's rows, and the filed
+    submissions."""
+
+    records: pd.DataFrame
+    every: pd.DataFrame
+    ablation_runs: str
+    groups: list
+    own: list
+    submitted: list[Entry]
+    notes: list[str]
 
 
-def submission_entries(folder: Path) -> list[Entry]:
-    """The rows of every filed submission, marked with its status."""
-    entries = []
-    for path, body in filed(folder):
-        records = pd.DataFrame(body["records"]).assign(source=str(path))
-        for key, episodes in group_rows(records):
-            entries.append(Entry(summarize_row(key, episodes), episodes, f"submission, {status(path, body)}"))
-    return entries
-
-
-def submission_command(args) -> int:
-    """``--add`` or ``--verify``."""
-    folder = Path(args.submissions or Path(args.runs).parent / "submissions")
-    if args.add:
-        target = add(Path(args.add), folder)
-        print(f"filed {args.add} as {target}; regenerate the leaderboard and the site to show it")
-        return 0
-    played, mismatches = verify(Path(args.verify), args.episodes, args.seed, folder)
-    for line in mismatches:
-        print(f"differs: {line}")
-    verdict = "unverified: the replay differs" if mismatches else f"verified ({len(played)})"
-    print(f"{verdict}; replayed {', '.join(played)}")
-    return 1 if mismatches else 0
-
-
-@user_errors
-def main(argv: list[str] | None = None) -> int:
+def parse_args(argv: list[str] | None):
     parser = ArgumentParser(
         prog="python -m cabinbench.leaderboard",
         description="Regenerate the leaderboard tables and figures from the per-episode records.",
@@ -115,12 +102,12 @@ def main(argv: list[str] | None = None) -> int:
         help="folder of run records of further training runs' policies "
         "(default: ablation_runs beside --runs)",
     )
+    # no type: with --site it is read, not written; the tables check it (checked_output)
     parser.add_argument(
         "--out",
-        type=output_folder,
         default="results",
         help="folder for leaderboard.{md,csv}, uncovered.{md,csv}, ablation.{md,csv} and figures/ "
-        "(default results)",
+        "(default results; with --site, where the figures are read from)",
     )
     parser.add_argument(
         "--submissions",
@@ -129,59 +116,130 @@ def main(argv: list[str] | None = None) -> int:
     action = parser.add_mutually_exclusive_group()
     action.add_argument("--site", type=output_folder, metavar="DIR", help="write the static site into DIR")
     action.add_argument("--add", metavar="FILE", help="check a submission and file it in --submissions")
-    action.add_argument("--verify", metavar="FILE", help="replay episodes of a submission and compare")
+    action.add_argument("--verify", metavar="FILE", help="replay a submission's episodes and compare")
     parser.add_argument(
-        "--episodes", type=positive_int, default=3, help="episodes --verify replays (default 3)"
+        "--episodes",
+        type=positive_int,
+        help="with --verify: replay only this many, chosen at random (a partial replay verifies nothing; "
+        "default: every episode)",
     )
     parser.add_argument(
         "--seed", type=non_negative_int, default=0, help="seed of --verify's choice of episodes (default 0)"
     )
-    args = parser.parse_args(argv)
-    if args.add or args.verify:
-        return submission_command(args)
+    return parser.parse_args(argv)
+
+
+def records_in(folder: str) -> pd.DataFrame:
+    """The usable records of a folder (empty when it does not exist; a bad one is skipped with a
+    warning), with each layout's complexity as it is now
+    (:func:`~cabinbench.records.with_current_complexity`)."""
+    if not Path(folder).is_dir():
+        return pd.DataFrame()
+    return with_current_complexity(read_records(folder))
+
+
+def submission_entries(folder: Path) -> list[Entry]:
+    """The rows of every filed submission, marked with its status."""
+    entries = []
+    for path, body in filed(folder):
+        records = pd.DataFrame(body["records"]).assign(source=str(path))
+        for key, episodes in group_rows(records):
+            entries.append(Entry(summarize_row(key, episodes), episodes, f"submission, {status(path, body)}"))
+    return entries
+
+
+def submissions_folder(args) -> Path:
+    return Path(args.submissions or Path(args.runs).parent / "submissions")
+
+
+def submission_command(args) -> int:
+    """``--add`` or ``--verify``."""
+    if args.add:
+        target = add(Path(args.add), submissions_folder(args))
+        print(f"filed {args.add} as {target}; regenerate the leaderboard and the site to show it")
+        return 0
+    played, mismatches, total = verify(Path(args.verify), args.episodes, args.seed, submissions_folder(args))
+    for line in mismatches:
+        print(f"differs: {line}")
+    if mismatches:
+        verdict = "unverified: the replay differs"
+    elif len(played) < total:
+        verdict = (
+            f"{len(played)} of {total} replayed, all matched; not verified: replay every episode "
+            "(without --episodes) to verify"
+        )
+    else:
+        verdict = f"verified: all {total} episodes replayed and matched"
+    print(f"{verdict}; replayed {', '.join(played)}")
+    return 1 if mismatches else 0
+
+
+def read_inputs(args) -> Inputs:
+    """The records and submissions the leaderboard is built from (a user error when there are none)."""
     if not Path(args.runs).is_dir():
         raise UsageError(f"--runs: no folder {args.runs}; give the folder of a run's records")
-    records = records_in(args.runs, "--runs")
+    records = records_in(args.runs)
     if records.empty:
         raise UsageError(f"--runs: no records in {args.runs}; run `python -m cabinbench.run ...` first")
     ablation_runs = Path(args.ablation_runs or Path(args.runs).parent / "ablation_runs").as_posix()
-    further = records_in(ablation_runs, "--ablation-runs")
+    further = records_in(ablation_runs)
     every = pd.concat([records, further], ignore_index=True) if not further.empty else records
-    training = Path(args.training)
     groups = group_rows(classic(records))
-    rows = [summarize_row(key, episodes) for key, episodes in groups]
     notes = [note for key, episodes in groups for note in mixed_settings(key, episodes)]
     for note in notes:
         print(f"warning: {note}", file=sys.stderr)
-    submitted = submission_entries(Path(args.submissions or Path(args.runs).parent / "submissions"))
-    own = table_rows(classic(every), training)
-    out = args.out
-    if args.site:
-        command = f"python -m cabinbench.leaderboard --runs {args.runs} --out {out} --site DIR"
-        entries = [Entry(row, episodes) for row, episodes in own] + submitted
-        suites = suite_records(every)
-        if not suites.empty:  # the classic suite's records are the index's rows
-            suites = suites[suites["suite"] != "classic"]
-        pages = build_site(
-            args.site, entries, suites, out / "figures", Path(args.training), Path("CITATION.cff"), command
-        )
-        print(f"{len(entries)} rows, {len(pages)} pages: {args.site / 'index.html'}")
-        return 0
-    table = [row for row, _ in own] + [
-        {**entry.row, "baseline": f"{entry.row['baseline']} ({entry.source})"} for entry in submitted
-    ]
+    return Inputs(
+        records,
+        every,
+        ablation_runs,
+        groups,
+        table_rows(classic(every), Path(args.training)),
+        submission_entries(submissions_folder(args)),
+        notes,
+    )
 
+
+def citation_file() -> Path:
+    """``CITATION.cff`` of the working folder, else of the source checkout this package runs from."""
+    for folder in (Path.cwd(), Path(__file__).resolve().parents[2]):
+        if (folder / "CITATION.cff").is_file():
+            return folder / "CITATION.cff"
+    raise UsageError(
+        "--site: no CITATION.cff in the working folder, and this cabinbench is not a source checkout; "
+        "run it in a folder that holds the repository's CITATION.cff"
+    )
+
+
+def write_site(args, inputs: Inputs, citation: Path) -> int:
+    out = Path(args.out)
+    command = f"python -m cabinbench.leaderboard --runs {args.runs} --out {out} --site DIR"
+    entries = [Entry(row, episodes) for row, episodes in inputs.own] + inputs.submitted
+    suites = suite_records(inputs.every)
+    if not suites.empty:  # the classic suite's records are the index's rows
+        suites = suites[suites["suite"] != "classic"]
+    pages = build_site(args.site, entries, suites, out / "figures", Path(args.training), citation, command)
+    print(f"{len(entries)} rows, {len(pages)} pages: {args.site / 'index.html'}")
+    return 0
+
+
+def write_tables(args, inputs: Inputs, out: Path) -> int:
+    """leaderboard.{md,csv}, teams.csv, uncovered.{md,csv} and the figures."""
+    table = [row for row, _ in inputs.own] + [
+        {**entry.row, "baseline": f"{entry.row['baseline']} ({entry.source})"} for entry in inputs.submitted
+    ]
     out.mkdir(parents=True, exist_ok=True)
     command = f"python -m cabinbench.leaderboard --runs {args.runs} --out {out}"
-    sources = f"`{args.runs}` (shipped policies) and `{ablation_runs}` (the other training seeds' policies)"
-    text = markdown(table, classic(every), sources, command, notes)
-    teams = team_rows(own)
-    suite_text, suite_figures = suites_section(suite_records(every), out)
+    sources = (
+        f"`{args.runs}` (shipped policies) and `{inputs.ablation_runs}` (the other training seeds' policies)"
+    )
+    text = markdown(table, classic(inputs.every), sources, command, inputs.notes)
+    teams = team_rows(inputs.own)
+    suite_text, suite_figures = suites_section(suite_records(inputs.every), out)
     (out / "leaderboard.md").write_text(text + teams_section(teams) + suite_text, encoding="utf-8")
     csv_table(table).to_csv(out / "leaderboard.csv", index=False, float_format="%.6g", lineterminator="\n")
     if teams:
         teams_csv(teams).to_csv(out / "teams.csv", index=False, float_format="%.6g", lineterminator="\n")
-    uncovered, uncovered_notes = uncovered_rows(groups)
+    uncovered, uncovered_notes = uncovered_rows(inputs.groups)
     for note in uncovered_notes:
         print(f"warning: {note}", file=sys.stderr)
     (out / "uncovered.md").write_text(
@@ -190,28 +248,50 @@ def main(argv: list[str] | None = None) -> int:
     uncovered_csv(uncovered).to_csv(
         out / "uncovered.csv", index=False, float_format="%.6g", lineterminator="\n"
     )
+    rows = [summarize_row(key, episodes) for key, episodes in inputs.groups]
     figures = (
-        (write_figures(groups, rows, out / "figures") if groups else [])  # none when every run is in a suite
-        + training_figures(training, out / "figures")
+        (write_figures(inputs.groups, rows, out / "figures") if inputs.groups else [])  # none: all in suites
+        + training_figures(Path(args.training), out / "figures")
         + suite_figures
     )
     print(
-        f"{len(table)} rows from {len(every)} episodes: {out / 'leaderboard.md'}, "
+        f"{len(table)} rows from {len(inputs.every)} episodes: {out / 'leaderboard.md'}, "
         f"{out / 'leaderboard.csv'}, {len(figures)} figures in {out / 'figures'}"
     )
-    learned = ablation_rows(classic(every), training)
-    if learned:
-        sources = f"`{args.runs}` (shipped policies) and `{ablation_runs}` (the others)"
-        (out / "ablation.md").write_text(
-            ablation_markdown(learned, sources, f"{command} --ablation-runs {ablation_runs}"),
-            encoding="utf-8",
-        )
-        ablation_csv(learned).to_csv(
-            out / "ablation.csv", index=False, float_format="%.6g", lineterminator="\n"
-        )
-        ablation_figure(learned, out / "figures" / "ablation_coverage.png")
-        print(
-            f"{len(learned)} ablation rows: {out / 'ablation.md'}, {out / 'ablation.csv'}, "
-            f"{out / 'figures' / 'ablation_coverage.png'}"
-        )
+    write_ablation(args, inputs, out, command)
     return 0
+
+
+def write_ablation(args, inputs: Inputs, out: Path, command: str) -> None:
+    """ablation.{md,csv} and its figure, when some learned baseline has several training runs' records."""
+    learned = ablation_rows(classic(inputs.every), Path(args.training))
+    if not learned:
+        return
+    sources = f"`{args.runs}` (shipped policies) and `{inputs.ablation_runs}` (the others)"
+    (out / "ablation.md").write_text(
+        ablation_markdown(learned, sources, f"{command} --ablation-runs {inputs.ablation_runs}"),
+        encoding="utf-8",
+    )
+    ablation_csv(learned).to_csv(out / "ablation.csv", index=False, float_format="%.6g", lineterminator="\n")
+    ablation_figure(learned, out / "figures" / "ablation_coverage.png")
+    print(
+        f"{len(learned)} ablation rows: {out / 'ablation.md'}, {out / 'ablation.csv'}, "
+        f"{out / 'figures' / 'ablation_coverage.png'}"
+    )
+
+
+@user_errors
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    if args.add or args.verify:
+        return submission_command(args)
+    if args.episodes is not None:
+        raise UsageError("--episodes goes with --verify")
+    # what is written is checked before the records are read
+    citation = citation_file() if args.site else None
+    out = None if args.site else checked_output("--out", output_folder, args.out)
+    with warnings_as_lines(RecordWarning):
+        inputs = read_inputs(args)
+    if args.site:
+        return write_site(args, inputs, citation)
+    return write_tables(args, inputs, out)

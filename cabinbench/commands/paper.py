@@ -14,15 +14,18 @@ byte-identical paper. A missing input is a user error: one line, exit status 2.
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
-from cabinbench.cli import ArgumentParser, output_file, user_errors
+from cabinbench.cli import ArgumentParser, checked_output, output_file, user_errors, warnings_as_lines
 from cabinbench.errors import UsageError
 from cabinbench.layouts.complexity import layout_summary
 from cabinbench.layouts.load import builtin_layout_dir
 from cabinbench.layouts.resolve import load_layout
 from cabinbench.paper.reproduction import reproduction_table
-from cabinbench.records import read_records, with_current_complexity
+from cabinbench.records import RecordWarning, read_records, with_current_complexity
+
+DEFAULT_OUT = "paper/paper.md"
 
 
 def layouts_table() -> str:
@@ -58,19 +61,26 @@ def figures(results: Path, paper_dir: Path) -> str:
 
 
 def build(template: Path, results: Path, out: Path) -> str:
+    """The paper: ``template`` with every placeholder filled; one nothing fills is a user error."""
     text = template.read_text(encoding="utf-8")
-    replacements = {
-        "{{layouts_table}}": layouts_table(),
-        "{{leaderboard_table}}": generated_table(results / "leaderboard.md"),
-        "{{ablation_table}}": generated_table(results / "ablation.md"),
-        "{{uncovered_table}}": generated_table(results / "uncovered.md"),
-        "{{figures}}": figures(results, out.parent),
-        "{{reproduction_table}}": reproduction_table(
+    fillers = {
+        "{{layouts_table}}": layouts_table,
+        "{{leaderboard_table}}": lambda: generated_table(results / "leaderboard.md"),
+        "{{ablation_table}}": lambda: generated_table(results / "ablation.md"),
+        "{{uncovered_table}}": lambda: generated_table(results / "uncovered.md"),
+        "{{figures}}": lambda: figures(results, out.parent),
+        "{{reproduction_table}}": lambda: reproduction_table(
             with_current_complexity(read_records(results / "runs")), results
         ),
     }
-    for placeholder, value in replacements.items():
-        text = text.replace(placeholder, value)
+    unknown = sorted(set(re.findall(r"\{\{[^{}]*\}\}", text)) - set(fillers))
+    if unknown:
+        raise UsageError(
+            f"--template: {template} has the placeholder(s) {', '.join(unknown)}, which nothing fills; "
+            f"use {', '.join(fillers)}"
+        )
+    for placeholder, fill in fillers.items():
+        text = text.replace(placeholder, fill())
     return text
 
 
@@ -82,9 +92,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--template", default="paper/template.md")
     parser.add_argument("--results", default="results")
     # no string default: argparse would check it before an unknown option, and report the wrong mistake
-    parser.add_argument("--out", type=output_file(".md"), help="the paper to write (default: paper/paper.md)")
+    parser.add_argument("--out", type=output_file(".md"), help=f"the paper to write (default: {DEFAULT_OUT})")
     args = parser.parse_args(argv)
-    out = args.out or Path("paper/paper.md")
+    out = args.out or checked_output("--out", output_file(".md"), DEFAULT_OUT)
     results, template = Path(args.results), Path(args.template)
     if not (results / "leaderboard.md").is_file():
         raise UsageError(
@@ -93,8 +103,8 @@ def main(argv: list[str] | None = None) -> int:
         )
     if not template.is_file():
         raise UsageError(f"--template: no file {template}; give the paper's template (paper/template.md)")
-    if not out.parent.is_dir():
-        raise UsageError(f"--out: no folder {out.parent} for {out}; create it, or give --out FILE.md")
-    out.write_text(build(template, results, out), encoding="utf-8")
+    with warnings_as_lines(RecordWarning):
+        text = build(template, results, out)
+    out.write_text(text, encoding="utf-8")
     print(f"wrote {out}")
     return 0

@@ -40,7 +40,6 @@ from __future__ import annotations
 import contextlib
 import inspect
 import json
-import math
 import sys
 from pathlib import Path
 
@@ -57,18 +56,18 @@ from cabinbench.cli import (
     positive_int,
     user_errors,
 )
+from cabinbench.commands.run_report import report
 from cabinbench.episodes import EpisodeJob, EpisodeResult, run_jobs
 from cabinbench.errors import EXIT_INTERRUPTED, UsageError
 from cabinbench.executors import EXECUTOR_NAMES, executors
 from cabinbench.executors.base import Executor, JobFailure
+from cabinbench.layouts.model import Layout
 from cabinbench.layouts.resolve import load_layout
 from cabinbench.layouts.suites import get_suite
 from cabinbench.leaderboard.submissions import write_submission
-from cabinbench.metrics import METRICS, TEAM_METRICS
 from cabinbench.records import RunWriter, run_header, run_path
 from cabinbench.sim.rewards import REWARD_PRESETS
 from cabinbench.sim.world import PROTOCOLS, start_poses
-from cabinbench.stats import Summary, distinct_episodes, summarize, summarize_cells
 
 GIF_FRAMES = 100  # frames spread over the step limit; the GIF stops early if the episode does
 GIF_FRAME_MS = 80
@@ -215,50 +214,6 @@ def collect(
     return finished, failed
 
 
-def summary_metrics(record: dict) -> list[str]:
-    """The metrics of a record that have one number per episode (not ``path_lengths``)."""
-    names = [name for name in (*METRICS, *TEAM_METRICS) if name in record and name != "n_agents"]
-    return [name for name in names if record[name] is None or isinstance(record[name], (bool, int, float))]
-
-
-def summarize_run(records: list[dict], layouts: list[str] | None = None) -> dict[str, Summary]:
-    """Each metric's summary over the run's distinct episodes (a deterministic baseline from a
-    fixed start repeats one episode: one unit, no interval). With ``layouts`` (each record's, a
-    suite run) the mean over layouts of per-layout means, with the stratified bootstrap interval
-    (layouts, and episodes within each, resampled), as the leaderboard's suites section gives it."""
-    import pandas as pd
-
-    frame = pd.DataFrame(records)
-    if layouts is not None:
-        frame["layout"] = layouts
-    distinct = distinct_episodes(frame, within=("layout",) if layouts is not None else ())
-    if layouts is None:
-        rows = distinct.to_dict("records")
-        return {name: summarize(name, [row[name] for row in rows]) for name in summary_metrics(records[0])}
-    layouts = dict(list(distinct.groupby("layout", sort=True)))
-    return {
-        name: summarize_cells(
-            name, {("run", layout): cell[name].tolist() for layout, cell in layouts.items()}
-        )
-        for name in summary_metrics(records[0])
-    }
-
-
-def format_table(summaries: dict[str, Summary], title: str) -> str:
-    def number(value: float) -> str:
-        return "n/a" if math.isnan(value) else f"{value:.4g}"
-
-    lines = [title, f"{'metric':<18} {'mean':>10}   {'95% CI':<24} note", "-" * 64]
-    for name, summary in summaries.items():
-        interval = f"[{number(summary.low)}, {number(summary.high)}]"
-        if summary.reached is not None:
-            note = f"reached in {summary.n} distinct episodes ({summary.reached:.0%})"
-        else:
-            note = "one distinct episode: no interval" if summary.n == 1 else ""
-        lines.append(f"{name:<18} {number(summary.mean):>10}   {interval:<24} {note}".rstrip())
-    return "\n".join(lines)
-
-
 def save_render(frames: list, path: str) -> None:
     """The last frame as a PNG, or all frames as a looping GIF that rests on the final state."""
     images = [Image.fromarray(frame) for frame in frames]
@@ -281,6 +236,11 @@ def plan(args) -> tuple[str | None, list[str], int, bool]:
     if args.episodes is not None:
         raise UsageError("--episodes goes with --layout; with --suite use --episodes-per-layout")
     suite = get_suite(args.suite)
+    if args.layouts is not None and args.layouts > len(suite):
+        raise UsageError(
+            f"--layouts {args.layouts}: suite {suite.name} has {len(suite)} layouts; "
+            f"give at most {len(suite)}"
+        )
     protocol_start = "random" if suite.random_start else "fixed"
     if args.submission:  # what a submission must follow: refused now, not at --add after the run
         for given, option in (
@@ -301,14 +261,20 @@ def plan(args) -> tuple[str | None, list[str], int, bool]:
     )
 
 
-@user_errors
-def main(argv: list[str] | None = None) -> int:
-    args = parse_args(argv)
+def prepare(args) -> tuple[str | None, dict[str, Layout], int, bool, Baseline]:
+    """(suite, its layouts by name, episodes per layout, random start, the baseline) of the run the
+    arguments ask for, every one checked: a user mistake is refused here, before any file is written."""
     suite, names, episodes, random_start = plan(args)
     if args.submission and not suite:
         raise UsageError("--submission goes with --suite: a submission covers every layout of a suite")
     layouts = {name: load_layout(name) for name in names}  # every layout checked before any episode
     for layout in layouts.values():
+        try:
+            layout.name.encode("utf-8")
+        except UnicodeEncodeError:  # a file name in another encoding: its records could not be reported
+            raise UsageError(
+                f"--layout: the name {layout.name!r} (its file's name) is not UTF-8 text; rename the file"
+            ) from None
         try:
             start_poses(layout, args.agents)  # a team too large for the start cell: refuse before writing
         except ValueError as error:
@@ -318,10 +284,15 @@ def main(argv: list[str] | None = None) -> int:
         baseline = load_baseline(args.baseline, **args.config)
     except ValueError as error:  # a file the class cannot use (a BaselineError is a user error already)
         raise UsageError(f"--baseline {args.baseline}: {error}") from None
+    return suite, layouts, episodes, random_start, baseline
 
-    executor = make_executor(args)  # a missing Ray or cluster is refused before any file is written
+
+def episode_jobs(
+    args, suite: str | None, layouts: dict[str, Layout], episodes: int, random_start: bool, baseline
+) -> tuple[list[EpisodeJob], dict[str, RunWriter]]:
+    """Every episode of the run, and a writer per layout (its records file claimed, empty)."""
     writers: dict[str, RunWriter] = {}
-    jobs = []
+    jobs: list[EpisodeJob] = []
     for position, (name, layout) in enumerate(layouts.items()):
         seed = args.seed + position * episodes  # every episode of a suite run has a seed of its own
         max_steps = args.max_steps or layout.max_steps
@@ -358,37 +329,40 @@ def main(argv: list[str] | None = None) -> int:
             for episode in range(episodes)
         ]
         writers[name] = RunWriter(run_path(args.out, header), header, layout)
-    try:
-        # What workers and Ray print is a diagnostic (stderr): stdout holds the summary (--json: one object).
-        # The executor closes first: Ray's notices (a worker died) may arrive until it has shut down.
-        with contextlib.redirect_stdout(sys.stderr), executor:
-            finished, failed = collect(run_jobs(jobs, executor), writers, len(jobs))
-        first = next((result for result in finished if result.job == jobs[0]), None)
-        if args.render and first is not None:  # the first episode's worker may have died
-            save_render(first.trajectory["frames"], args.render)
-        if finished:
-            report(args, suite or layouts[names[0]].name, finished, list(writers.values()))
-        if args.submission and not failed:
-            records = [
-                json.loads(line)
-                for writer in writers.values()
-                for line in writer.path.read_text(encoding="utf-8").splitlines()
-            ]
-            write_submission(args.submission, records, args.baseline, get_suite(suite))
-            print(f"submission: {args.submission}", file=sys.stderr if args.json else sys.stdout)
-    except KeyboardInterrupt:
-        kept = [writer for writer in writers.values() if writer.episodes_written()]
-        count = sum(writer.episodes_written() for writer in kept)
-        where = ", ".join(str(writer.path) for writer in kept[:3]) + (" ..." if len(kept) > 3 else "")
-        print(
-            f"interrupted: {count} finished episode(s) kept; {where or 'nothing was written'}"
-            + (" (trajectories beside them, .npz)" if kept else ""),
-            file=sys.stderr,
-        )
-        return EXIT_INTERRUPTED
-    finally:
-        for writer in writers.values():
-            writer.remove_if_empty()  # a run stopped before its first episode leaves no file
+    return jobs, writers
+
+
+def write_outputs(args, suite: str | None, finished, failed, jobs, writers: dict[str, RunWriter]) -> None:
+    """The render of the first episode, the summary, and (when no episode failed) the submission."""
+    first = next((result for result in finished if result.job == jobs[0]), None)
+    if args.render and first is not None:  # the first episode's worker may have died
+        save_render(first.trajectory["frames"], args.render)
+    if finished:
+        report(args, suite or next(iter(writers.values())).header["layout"], finished, list(writers.values()))
+    if args.submission and not failed:
+        records = [
+            json.loads(line)
+            for writer in writers.values()
+            for line in writer.path.read_text(encoding="utf-8").splitlines()
+        ]
+        write_submission(args.submission, records, args.baseline, get_suite(suite))
+        print(f"submission: {args.submission}", file=sys.stderr if args.json else sys.stdout)
+
+
+def say_interrupted(writers: dict[str, RunWriter]) -> None:
+    """Ctrl-C: how many finished episodes are on disk, and where."""
+    kept = [writer for writer in writers.values() if writer.episodes_written()]
+    count = sum(writer.episodes_written() for writer in kept)
+    where = ", ".join(str(writer.path) for writer in kept[:3]) + (" ..." if len(kept) > 3 else "")
+    print(
+        f"interrupted: {count} finished episode(s) kept; {where or 'nothing was written'}"
+        + (" (trajectories beside them, .npz)" if kept else ""),
+        file=sys.stderr,
+    )
+
+
+def say_failed(failed: list[JobFailure]) -> None:
+    """One line per episode whose worker died, with the command that plays it again."""
     for failure in sorted(failed, key=lambda failure: (failure.job.layout, failure.job.episode)):
         job = failure.job
         print(
@@ -397,51 +371,25 @@ def main(argv: list[str] | None = None) -> int:
             "--episodes 1",
             file=sys.stderr,
         )
+
+
+@user_errors
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    suite, layouts, episodes, random_start, baseline = prepare(args)
+    executor = make_executor(args)  # a missing Ray or cluster is refused before any file is written
+    jobs, writers = episode_jobs(args, suite, layouts, episodes, random_start, baseline)
+    try:
+        # What workers and Ray print is a diagnostic (stderr): stdout holds the summary (--json: one object).
+        # The executor closes first: Ray's notices (a worker died) may arrive until it has shut down.
+        with contextlib.redirect_stdout(sys.stderr), executor:
+            finished, failed = collect(run_jobs(jobs, executor), writers, len(jobs))
+        write_outputs(args, suite, finished, failed, jobs, writers)
+    except KeyboardInterrupt:
+        say_interrupted(writers)
+        return EXIT_INTERRUPTED
+    finally:
+        for writer in writers.values():
+            writer.remove_if_empty()  # a run stopped before its first episode leaves no file
+    say_failed(failed)
     return 1 if failed else 0
-
-
-def report(args, name: str, finished: list[EpisodeResult], writers: list[RunWriter]) -> None:
-    """The summary on stdout: a table, or with ``--json`` one JSON object (with ``--suite``,
-    ``records`` and ``trajectories`` list one file per layout)."""
-    order = {job_layout: index for index, job_layout in enumerate(w.header["layout"] for w in writers)}
-    finished = sorted(
-        finished, key=lambda result: (order.get(result.record.get("layout"), 0), result.job.episode)
-    )
-    records = [result.record for result in finished]
-    summaries = summarize_run(records, [result.job.layout for result in finished] if args.suite else None)
-    render = str(args.render) if args.render else None
-    paths = [str(writer.path) for writer in writers]
-    trajectories = [str(writer.trajectory_path) for writer in writers]
-    if args.json:
-        print(
-            json.dumps(
-                {
-                    "baseline": args.baseline,
-                    "layout": None if args.suite else name,
-                    "suite": args.suite and name,
-                    "layouts": len(writers),
-                    "protocol": args.protocol,
-                    "n_agents": args.agents,
-                    "episodes": len(records),
-                    "records": paths if args.suite else paths[0],
-                    "trajectories": trajectories if args.suite else trajectories[0],
-                    "render": render,
-                    "metrics": {metric: summary.as_dict() for metric, summary in summaries.items()},
-                }
-            )
-        )
-        return
-    where = f"suite {name}, {len(writers)} layouts" if args.suite else name
-    seeds = [result.job.episode_seed for result in finished]
-    title = (
-        f"{args.baseline} on {where} ({args.protocol}, K={args.agents}): {len(records)} episodes, "
-        f"seeds {min(seeds)}..{max(seeds)}"
-        + ("; mean over layouts of per-layout means, stratified bootstrap" if args.suite else "")
-    )
-    print(format_table(summaries, title))
-    if args.suite:
-        print(f"\nrecords: {len(paths)} files in {Path(paths[0]).parent} (trajectories beside them, .npz)")
-    else:
-        print(f"\nrecords: {paths[0]}\ntrajectories: {trajectories[0]}")
-    if render:
-        print(f"render: {render}")

@@ -12,9 +12,8 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
-from cabinbench.cli import ArgumentParser, user_errors
+from cabinbench.cli import ArgumentParser, checked_output, output_file, user_errors
 from cabinbench.errors import UsageError
 from cabinbench.layouts.suites import (
     Suite,
@@ -113,9 +112,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{args.verify}: all {len(get_suite(args.verify))} layouts match the manifest")
         return 0
     if args.png:
-        suite, path = get_suite(args.png[0]), Path(args.png[1])
-        if path.suffix.lower() != ".png" or not path.parent.is_dir():
-            raise UsageError(f"--png: {path} must be a .png file in an existing folder")
+        suite, path = get_suite(args.png[0]), checked_output("--png", output_file(".png"), args.png[1])
         contact_sheet(suite, str(path))
         print(f"wrote {args.png[1]}")
         return 0

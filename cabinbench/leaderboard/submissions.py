@@ -10,9 +10,12 @@ A submission is one self-contained JSON file, written by ``run --suite S ... --s
      "records": [one record per episode, as in results/runs/*.jsonl],
      "checksum": "sha256:<hex>"}
 
-The checksum is the SHA-256 of the canonical JSON (sorted keys, no spaces) of everything else.
-``leaderboard --add`` checks it against the suite as shipped (:func:`check`), then files it in
-``results/submissions/``; ``leaderboard --verify`` replays some of its episodes (:func:`verify`).
+The checksum is the SHA-256 of the canonical JSON (sorted keys, no spaces) of everything else: it
+finds a file changed by accident, not one changed on purpose (anyone recomputes it). Honesty comes
+from the replay: every episode is deterministic, and a submission is shown as verified only when
+all of its episodes were replayed and matched. ``leaderboard --add`` checks it against the suite as
+shipped (:func:`check`), then files it in ``results/submissions/``; ``leaderboard --verify``
+replays its episodes (:func:`verify`).
 
 The protocol (:mod:`cabinbench.suites`): every layout of the suite, the same number N of episodes
 on each, from base seed 0, so the layout at position p plays the episode seeds p*N ... p*N+N-1; each
@@ -35,9 +38,9 @@ from cabinbench.agents import ENTRY_POINT_GROUP, registered_baselines
 from cabinbench.errors import LayoutError, UsageError
 from cabinbench.layouts.resolve import load_layout
 from cabinbench.layouts.suites import Suite, get_suite
-from cabinbench.metrics import METRICS, REACH_TIMES, TEAM_METRICS
-from cabinbench.records import RECORD_FIELDS, safe_name
-from cabinbench.values import is_real_number, is_whole_number
+from cabinbench.metrics import METRICS, TEAM_METRICS
+from cabinbench.records import RECORD_FIELDS, metric_problem, safe_name
+from cabinbench.values import is_whole_number
 from cabinbench.version import __version__
 
 FORMAT = "cabinbench-submission/1"
@@ -98,34 +101,28 @@ def write_submission(path: Path, records: list[dict], spec: str, suite: Suite) -
 def read(path: Path) -> dict:
     """A submission file's content, or a one-line error if it is not one."""
     try:
-        body = json.loads(Path(path).read_text(encoding="utf-8"))
+        body = json.loads(Path(path).read_text(encoding="utf-8"), parse_constant=_not_json)
     except FileNotFoundError:
         raise SubmissionError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise SubmissionError(f"{path}: is a folder; give the submission file (FILE.json)") from None
+    except OSError as error:
+        raise SubmissionError(f"{path}: cannot read it ({error.strerror})") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as error:
         raise SubmissionError(f"{path}: not a JSON file ({error})") from None
+    except ValueError as error:  # NaN or Infinity, which json reads but JSON has not
+        raise SubmissionError(f"{path}: {error}; a record's numbers must be finite") from None
     if not isinstance(body, dict) or body.get("format") != FORMAT:
         raise SubmissionError(f'{path}: not a cabinbench submission (no "format": "{FORMAT}")')
     return body
 
 
+def _not_json(constant: str):
+    raise ValueError(f"{constant} is not a JSON number")
+
+
 def metric_names(n_agents: int) -> tuple[str, ...]:
     return (*METRICS, *TEAM_METRICS) if n_agents > 1 else METRICS
-
-
-def metric_problem(name: str, value) -> str | None:
-    """What is wrong with a record's value of metric ``name`` (:mod:`cabinbench.metrics`), or None."""
-    if name == "success":
-        return None if isinstance(value, bool) else "not true or false"
-    if name == "path_lengths":  # one per robot
-        return None if isinstance(value, list) and all(map(_number, value)) else "not a list of numbers >= 0"
-    if value is None and name in REACH_TIMES:  # never reached
-        return None
-    return None if _number(value) else "not a number >= 0"
-
-
-def _number(value) -> bool:
-    """A finite number >= 0, as every metric's values are."""
-    return is_real_number(value) and value >= 0
 
 
 def check_record(index: int, record, body: dict) -> None:
@@ -320,7 +317,9 @@ def filed(folder: Path) -> list[tuple[Path, dict]]:
 
 
 def status(path: Path, body: dict) -> str:
-    """``verified (N)`` when a replay of N episodes matched this exact file, else ``unverified``."""
+    """``verified (M of M replayed)`` when a replay of every one of the M episodes matched this exact
+    file; ``unverified (N of M replayed)`` when only N were replayed (they matched, the others may
+    not); ``unverified (replay differs)``; else ``unverified``."""
     result = path.with_name(path.stem + VERIFIED_SUFFIX)
     if not result.exists():
         return "unverified"
@@ -329,7 +328,12 @@ def status(path: Path, body: dict) -> str:
         return "unverified"
     if verification["mismatches"]:
         return "unverified (replay differs)"
-    return f"verified ({len(verification['episodes'])})"
+    return replayed_status(len(verification["episodes"]), len(body["records"]))
+
+
+def replayed_status(replayed: int, total: int) -> str:
+    """The status of a replay of ``replayed`` of a submission's ``total`` episodes that all matched."""
+    return f"{'verified' if replayed == total else 'unverified'} ({replayed} of {total} replayed)"
 
 
 def same(submitted, replayed) -> bool:
@@ -340,11 +344,13 @@ def same(submitted, replayed) -> bool:
     return submitted == replayed
 
 
-def verify(path: Path, episodes: int, seed: int, folder: Path) -> tuple[list[str], list[str]]:
-    """Replay ``episodes`` episodes of the submission at ``path``, chosen at random (generator seeded
-    with ``seed``), and compare every metric with its record; return (the episodes played, one
-    line per metric that differs). When ``path`` is filed in ``folder`` the result is kept beside
-    it (``<name>.verification.json``) and the entry shows it."""
+def verify(path: Path, episodes: int | None, seed: int, folder: Path) -> tuple[list[str], list[str], int]:
+    """Replay every episode of the submission at ``path`` (``episodes`` None), or ``episodes`` of them
+    chosen at random (generator seeded with ``seed``), and compare every metric with its record;
+    return (the episodes played, one line per metric that differs, the submission's episodes).
+    Every episode is deterministic, so only a replay of all of them verifies the file: its checksum
+    is a plain SHA-256 that anyone who changes a record can recompute. When ``path`` is filed in
+    ``folder`` the result is kept beside it (``<name>.verification.json``) and the entry shows it."""
     from cabinbench.episodes import (
         run_episode,  # here: replaying needs the envs, reading a submission does not
     )
@@ -360,7 +366,8 @@ def verify(path: Path, episodes: int, seed: int, folder: Path) -> tuple[list[str
         )
     records = body["records"]
     rng = np.random.default_rng(seed)
-    chosen = sorted(rng.choice(len(records), size=min(episodes, len(records)), replace=False).tolist())
+    size = len(records) if episodes is None else min(episodes, len(records))
+    chosen = sorted(rng.choice(len(records), size=size, replace=False).tolist())
     played, mismatches = [], []
     for index in chosen:
         record = records[index]
@@ -385,4 +392,4 @@ def verify(path: Path, episodes: int, seed: int, folder: Path) -> tuple[list[str
     if target.exists() and read(target).get("checksum") == body["checksum"]:
         result = {"checksum": body["checksum"], "seed": seed, "episodes": played, "mismatches": mismatches}
         target.with_name(target.stem + VERIFIED_SUFFIX).write_text(json.dumps(result, indent=1) + "\n")
-    return played, mismatches
+    return played, mismatches, len(records)
