@@ -333,7 +333,7 @@ def test_a_suite_submission_is_a_row_of_the_suite_board(built, tmp_path):
     """A submission's suite records (as ``leaderboard`` makes its entries: per layout, marked) become
     rows of the suite's board beside ours, scored the same way; they get no layout pages."""
     results, _ = built
-    records = leaderboard.records_in(str(results.parent / "runs"), "--runs")
+    records = leaderboard.records_in(str(results.parent / "runs"))
     ours = records[records["suite"] == SUITE]
     submitted = [
         Entry(summarize_row(key, episodes), episodes.assign(source="sent.json"), "submission, unverified")

@@ -164,11 +164,11 @@ class EnvShard:
         self.first, self.n_agents, self.observe_ended = first, n_agents, observe_ended
         rows = slice(first * n_agents, (first + count) * n_agents)
         per_env = (count, n_agents)  # views of the batch's rows, env by env
-        self.actions = batch.actions[rows].reshape(*per_env, 2)
+        self.actions = list(batch.actions[rows].reshape(*per_env, 2))  # each env's (K, 2) view, made once
         self.observations = batch.observations[rows].reshape(*per_env, batch.observation_size)
-        self.states = batch.states[rows].reshape(
-            *per_env, batch.state_size
-        )  # the env's state, then a one-hot
+        self.states = batch.states[rows].reshape(*per_env, batch.state_size)  # the env's state, a one-hot
+        self._observation_rows = [list(robots) for robots in self.observations]  # each row's view, made once
+        self._with_state = batch.state_size > 0
         self.rewards = batch.rewards[rows].reshape(per_env)
         self.terminated, self.truncated = batch.terminated[rows], batch.truncated[rows]
         self.envs = [
@@ -184,9 +184,9 @@ class EnvShard:
 
     def _observe(self, k: int, env: TeamCoverageEnv) -> None:
         """Env ``k``'s rows: each robot's observation, and (with states) the env's state."""
-        for robot, row in enumerate(self.observations[k]):
+        for robot, row in enumerate(self._observation_rows[k]):
             env.world.observe(robot, out=row)
-        if self.states.shape[2]:
+        if self._with_state:
             self.states[k, :, : -self.n_agents] = env.state()
 
     def step(self) -> list[tuple[int, dict]]:
@@ -254,9 +254,10 @@ def _serve_shard(connection, *shard_arguments) -> None:
 def _sigint_ignored():
     """Ignore SIGINT in this process while workers start: a spawned worker inherits the ignored signal
     through ``exec``, and Python then installs no KeyboardInterrupt handler, so a Ctrl-C while it
-    imports cannot end it with a traceback. (Only the main thread may set signal handlers; elsewhere
-    the worker's own :func:`signal.signal` call, once its imports are done, has to do.)"""
-    if threading.current_thread() is not threading.main_thread():
+    imports cannot end it with a traceback. A Ctrl-C in these milliseconds is lost. (Only the main
+    thread may set signal handlers, and only a handler set from Python can be put back; otherwise the
+    worker's own :func:`signal.signal` call, once its imports are done, has to do.)"""
+    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGINT) is None:
         yield
         return
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)

@@ -51,7 +51,8 @@ class EnvSettings:
     render_mode: str | None = None  # "rgb_array" (uint8 H x W x 3 frames) or "human" (a window)
 
     def __post_init__(self) -> None:
-        self.lidar(), self.patch()  # their own checks name the argument
+        self.lidar()  # LidarConfig and CoveragePatch check their arguments, naming them
+        self.patch()
         if self.reward not in REWARD_PRESETS:
             raise ValueError(f"reward must be one of {REWARD_PRESETS}, got {self.reward!r}")
         if self.max_steps is not None:
@@ -109,16 +110,20 @@ def checked_action(action, shape: tuple[int, ...] = (2,), name: str = "action") 
     """The documented action policy: ``action`` must be real numbers of ``shape`` (the last axis is
     (linear, angular)); values are clipped to [-1, 1]; NaN and infinity are refused (a silent zero
     would hide a diverged policy), and so are complex numbers (casting would drop a part).
-    Returns float64 (robots, 2)."""
+    Returns float64 (robots, 2), possibly a view of ``action``: read it before ``action`` changes."""
     given = np.asarray(action)
     if given.dtype.kind not in "biufO":
         raise ValueError(f"{name} must be real numbers, got {given.dtype} values: {given.tolist()}")
-    action = given.astype(np.float64, copy=False)
+    action = np.asarray(given, dtype=np.float64)
     if action.shape != shape:
         raise ValueError(f"{name} must have shape {shape} (linear, angular), got shape {action.shape}")
-    if not np.isfinite(action).all():
-        raise ValueError(f"{name} contains NaN or infinity: {action.tolist()}")
-    return np.clip(action, -1.0, 1.0).reshape(-1, 2)
+    if not (
+        np.abs(action) <= 1.0
+    ).all():  # out of range, or NaN (which compares false); rare, and clip is slow
+        if not np.isfinite(action).all():
+            raise ValueError(f"{name} contains NaN or infinity: {action.tolist()}")
+        action = np.clip(action, -1.0, 1.0)
+    return action.reshape(-1, 2)
 
 
 def checked_count(value, name: str, note: str = "") -> int:

@@ -1,45 +1,5 @@
-"""Single-robot coverage env over a whole suite (Gymnasium): a new layout at every reset.
-
-## Description
-
-The env of :mod:`cabinbench.envs.coverage_env`, except that each reset draws one layout of a
-suite (:mod:`cabinbench.suites`) from the reset's seeded generator, so that a learner trains on a
-family of cabins rather than on one map (Procgen's ``num_levels`` idea: ``num_layouts`` keeps
-only the first N layouts). Made by ``gymnasium.make("CabinBench/Suite-v0", suite="cabin-v1-train")``.
-The layout in play is ``env.unwrapped.layout``; every info names it (``layout``, a numpy string).
-:class:`TeamSuiteEnv` is the same for a team of K robots (PettingZoo), the core this env wraps.
-
-## Action Space
-
-``Box(-1, 1, (2,), float32)``: (linear, angular), as in ``CoverageEnv``.
-
-## Observation Space
-
-``Box(float32, (6 * n_rays + coverage_patch² + 2,))``, laid out as in ``CoverageEnv``
-(``env.unwrapped.observation_layout``). Its shape depends only on the arguments, never on the
-layout drawn: every layout of the suite fits one policy.
-
-## Rewards
-
-The preset named by ``reward``, as in ``CoverageEnv``.
-
-## Starting State
-
-A layout drawn uniformly from the suite's first ``num_layouts`` layouts, then (with
-``random_start``, the default: the evaluation protocol of the suites) a pose drawn from the same
-generator in the layout's start cell, with a uniform heading; without it the layout's own start.
-
-## Episode End
-
-As in ``CoverageEnv``; the step limit is ``max_steps`` or, by default, the drawn layout's own
-(scaled with its coverable area).
-
-## Arguments
-
-``suite`` (a suite name, default ``"cabin-v1-train"``), ``num_layouts`` (default: all), and every
-argument of ``CoverageEnv`` but ``layout`` (the settings of :class:`~cabinbench.envs.settings.EnvSettings`);
-``random_start`` defaults to ``True``.
-"""
+"""Coverage envs over a whole suite, a new layout at every reset: :class:`SuiteEnv` (Gymnasium) and
+:class:`TeamSuiteEnv` (its core, K robots)."""
 
 from __future__ import annotations
 
@@ -93,6 +53,50 @@ class TeamSuiteEnv(TeamCoverageEnv):
 
 
 class SuiteEnv(CoverageEnv):
+    """Single-robot coverage env over a whole suite (Gymnasium): a new layout at every reset.
+
+    ## Description
+
+    The env of :mod:`cabinbench.envs.coverage_env`, except that each reset draws one layout of a
+    suite (:mod:`cabinbench.suites`) from the reset's seeded generator, so that a learner trains on a
+    family of cabins rather than on one map (Procgen's ``num_levels`` idea: ``num_layouts`` keeps
+    only the first N layouts). Made by ``gymnasium.make("CabinBench/Suite-v0", suite="cabin-v1-train")``.
+    The layout in play is ``env.unwrapped.layout``; every info names it (``layout``, a numpy string).
+    :class:`TeamSuiteEnv` is the same for a team of K robots (PettingZoo), the core this env wraps.
+
+    ## Action Space
+
+    ``Box(-1, 1, (2,), float32)``: (linear, angular), as in ``CoverageEnv``.
+
+    ## Observation Space
+
+    ``Box(float32, (6 * n_rays + coverage_patch² + 2,))``, laid out as in ``CoverageEnv``
+    (``env.unwrapped.observation_layout``). Its shape depends only on the arguments, never on the
+    layout drawn: every layout of the suite fits one policy.
+
+    ## Rewards
+
+    The preset named by ``reward``, as in ``CoverageEnv``.
+
+    ## Starting State
+
+    A layout drawn uniformly from the suite's first ``num_layouts`` layouts, then (with
+    ``random_start``, the default: the evaluation protocol of the suites) a pose drawn from the same
+    generator in the layout's start cell, with a uniform heading; without it the layout's own start.
+
+    ## Episode End
+
+    As in ``CoverageEnv``; the step limit is ``max_steps`` or, by default, the drawn layout's own
+    (scaled with its coverable area).
+
+    ## Arguments
+
+    ``suite`` (a suite name, default ``"cabin-v1-train"``), ``num_layouts`` (default: all), and every
+    argument of ``CoverageEnv`` but ``layout`` (the settings of
+    :class:`~cabinbench.envs.settings.EnvSettings`); ``random_start`` defaults to ``True``
+    (:data:`SUITE_SETTINGS`).
+    """
+
     def __init__(
         self,
         suite: str = "cabin-v1-train",
