@@ -55,11 +55,13 @@ from cabinbench.cli import (
 from cabinbench.errors import UsageError
 from cabinbench.leaderboard.ablation import ablation_csv, ablation_figure, ablation_markdown, ablation_rows
 from cabinbench.leaderboard.figures import training_figures, write_figures
+from cabinbench.leaderboard.headline import headline_csv, headline_html, headline_rows, headline_section
 from cabinbench.leaderboard.site import Entry, build_site
 from cabinbench.leaderboard.submissions import add, filed, status, verify
-from cabinbench.leaderboard.suites import classic, suite_records, suites_section
+from cabinbench.leaderboard.suites import classic, suite_records, suites_csv, suites_section
 from cabinbench.leaderboard.table import (
     csv_table,
+    document_header,
     group_rows,
     markdown,
     mixed_settings,
@@ -217,7 +219,10 @@ def write_site(args, inputs: Inputs, citation: Path) -> int:
     suites = suite_records(inputs.every)
     if not suites.empty:  # the classic suite's records are the index's rows
         suites = suites[suites["suite"] != "classic"]
-    pages = build_site(args.site, entries, suites, out / "figures", Path(args.training), citation, command)
+    headline = headline_html(headline_rows(inputs.every, Path(args.training)))
+    pages = build_site(
+        args.site, entries, suites, out / "figures", Path(args.training), citation, command, headline
+    )
     print(f"{len(entries)} rows, {len(pages)} pages: {args.site / 'index.html'}")
     return 0
 
@@ -232,11 +237,22 @@ def write_tables(args, inputs: Inputs, out: Path) -> int:
     sources = (
         f"`{args.runs}` (shipped policies) and `{inputs.ablation_runs}` (the other training seeds' policies)"
     )
-    text = markdown(table, classic(inputs.every), sources, command, inputs.notes)
+    headline = headline_rows(inputs.every, Path(args.training))
+    header = document_header(classic(inputs.every), sources, command)
     teams = team_rows(inputs.own)
     suite_text, suite_figures = suites_section(suite_records(inputs.every), out)
-    (out / "leaderboard.md").write_text(text + teams_section(teams) + suite_text, encoding="utf-8")
-    csv_table(table).to_csv(out / "leaderboard.csv", index=False, float_format="%.6g", lineterminator="\n")
+    (out / "leaderboard.md").write_text(
+        header
+        + headline_section(headline)
+        + "\n"
+        + markdown(table, inputs.notes)
+        + teams_section(teams)
+        + suite_text,
+        encoding="utf-8",
+    )
+    every_row = pd.concat([csv_table(table), suites_csv(suite_records(inputs.every))], ignore_index=True)
+    every_row.to_csv(out / "leaderboard.csv", index=False, float_format="%.6g", lineterminator="\n")
+    headline_csv(headline).to_csv(out / "headline.csv", index=False, float_format="%.6g", lineterminator="\n")
     if teams:
         teams_csv(teams).to_csv(out / "teams.csv", index=False, float_format="%.6g", lineterminator="\n")
     uncovered, uncovered_notes = uncovered_rows(inputs.groups)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import re
+from functools import cache
 from pathlib import Path
 
 from cabinbench.cli import ArgumentParser, checked_output, output_file, user_errors, warnings_as_lines
@@ -22,7 +23,11 @@ from cabinbench.errors import UsageError
 from cabinbench.layouts.complexity import layout_summary
 from cabinbench.layouts.load import builtin_layout_dir
 from cabinbench.layouts.resolve import load_layout
+from cabinbench.leaderboard.headline import HEADLINE_SUITES, headline_markdown, headline_rows
+from cabinbench.leaderboard.predictors import predictor_finding
+from cabinbench.leaderboard.suites import complexity_tests, suite_rows
 from cabinbench.paper.reproduction import reproduction_table
+from cabinbench.paper.summary import abstract, compute_table, figure_caption, findings
 from cabinbench.records import RecordWarning, read_records, with_current_complexity
 
 DEFAULT_OUT = "paper/paper.md"
@@ -53,17 +58,40 @@ def generated_table(path: Path) -> str:
 
 
 def figures(results: Path, paper_dir: Path) -> str:
+    """Every leaderboard figure with its caption, numbered."""
     entries = []
-    for path in sorted((results / "figures").glob("*.png")):
+    for number, path in enumerate(sorted((results / "figures").glob("*.png")), start=1):
         relative = Path(os.path.relpath(path, paper_dir)).as_posix()
-        entries.append(f"![{path.stem}]({relative})")
+        entries.append(f"![{path.stem}]({relative})\n\n*Figure {number}. {figure_caption(path.stem)}*")
     return "\n\n".join(entries) if entries else "(no figures yet)"
+
+
+def headline_inputs(results: Path) -> tuple[list[dict], str]:
+    """The headline rows (runs and the other training seeds' runs) and the complexity finding on the
+    test suite."""
+    records = read_records(
+        [folder for folder in (results / "runs", results / "ablation_runs") if folder.is_dir()]
+    )
+    rows = headline_rows(records, results / "training")
+    test = records[records["suite"] == HEADLINE_SUITES[0]] if "suite" in records else records.iloc[0:0]
+    finding = (
+        predictor_finding(complexity_tests(suite_rows(test)[0], test)[0], HEADLINE_SUITES[0])
+        if len(test)
+        else ""
+    )
+    return rows, finding
 
 
 def build(template: Path, results: Path, out: Path) -> str:
     """The paper: ``template`` with every placeholder filled; one nothing fills is a user error."""
     text = template.read_text(encoding="utf-8")
+    headline = cache(lambda: headline_inputs(results))
     fillers = {
+        "{{abstract}}": lambda: abstract(*headline()),
+        "{{findings}}": lambda: "\n".join(f"- {sentence}" for sentence in findings(headline()[0])),
+        "{{headline_table}}": lambda: headline_markdown(headline()[0]),
+        "{{complexity_finding}}": lambda: headline()[1],
+        "{{compute_table}}": lambda: compute_table(headline()[0]),
         "{{layouts_table}}": layouts_table,
         "{{leaderboard_table}}": lambda: generated_table(results / "leaderboard.md"),
         "{{ablation_table}}": lambda: generated_table(results / "ablation.md"),

@@ -14,9 +14,11 @@ intervals are clipped to it.
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 from dataclasses import dataclass
+from html import escape
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +27,9 @@ import pandas as pd
 from cabinbench.leaderboard.table import policy_of
 from cabinbench.stats import Summary, iqm_over_layouts, t_interval
 
+CHECKPOINTS = Path(importlib.util.find_spec("cabinbench.baselines.ppo_gail").origin).with_name("checkpoints")
+"""The shipped checkpoints and their training records, found without importing the learner (the core
+imports no baseline, and reading them needs no torch)."""
 HEADLINE_SUITES = ("cabin-v1-test", "cabin-v1-ood")
 HEADLINE_LAYOUT = "full_cabin"
 OBSERVES = {
@@ -115,7 +120,7 @@ def staged_training_cost(checkpoints: Path, baseline: str) -> TrainingCost | Non
     )
 
 
-def headline_rows(records: pd.DataFrame, training: Path, checkpoints: Path) -> list[dict]:
+def headline_rows(records: pd.DataFrame, training: Path, checkpoints: Path = CHECKPOINTS) -> list[dict]:
     """One row per (baseline, K) with records on a headline suite or layout, best test score first."""
     records = records.assign(policy=records["baseline_config"].map(policy_of))
     methods = records.loc[
@@ -138,7 +143,7 @@ def headline_rows(records: pd.DataFrame, training: Path, checkpoints: Path) -> l
         time = cabin["makespan"] if n_agents > 1 and "makespan" in cabin else cabin["time"]
         row["full_cabin_time"] = float(time.mean()) if len(cabin) else math.nan
         row["cost"] = training_cost(training, baseline) or staged_training_cost(checkpoints, baseline)
-        row["seeds"] = max(row[f"{suite} seeds"] for suite in HEADLINE_SUITES)
+        row["seeds"] = max(row[f"{suite} seeds"] for suite in HEADLINE_SUITES) or cabin["policy"].nunique()
         rows.append(row)
     return sorted(rows, key=_rank)
 
@@ -162,27 +167,71 @@ def _cost_cell(cost: TrainingCost | None) -> str:
     return f"{cost.env_steps / 1e6:.2f} M, {cost.wall_clock_s / 3600:.2f} h"
 
 
+HEADER = (
+    "method",
+    "K",
+    "observes",
+    "score, cabin-v1-test",
+    "score, cabin-v1-ood",
+    "full_cabin coverage",
+    "full_cabin time (s)",
+    "cleaned, test",
+    "training (env steps, wall-clock)",
+    "training seeds",
+)
+EXPLANATION = (
+    "Score: the headline score (`cabinbench/metrics.py`, `clean_score`): an episode that cleans the floor "
+    "(coverage reaches the layout's level, 0.98) scores 1 - (time to clean) / (2 × time limit), in [0.5, 1); "
+    "one that does not scores its coverage at the time limit / (2 × level), under 0.5, so stopping early "
+    "with "
+    "floor left dirty never beats cleaning it, and among cleaned episodes the faster wins. A method's score "
+    "on a suite is the interquartile mean over layouts of each layout's mean, with its 95% interval and n: "
+    "a Student-t interval over training seeds (n = seeds, compared on the layouts every seed played) for a "
+    "learned method with several, else a bootstrap over layouts (n = layouts); intervals are clipped to "
+    "[0, 1]. Every suite episode starts from a pose drawn from its seed. full_cabin: the mean over the "
+    "method's episodes from the layout's own start (time: makespan for teams). Cleaned: the share of test "
+    "episodes that cleaned the floor. Training: env steps and wall-clock per run, the mean over the "
+    "method's recorded training runs. Sorted by the test score."
+)
+
+
+def headline_section(rows: list[dict]) -> str:
+    """The headline table of ``leaderboard.md`` with what a reader needs to read it."""
+    return "\n".join(["## Headline: one row per method", "", EXPLANATION, "", headline_markdown(rows), ""])
+
+
+def _cells(row: dict) -> list[str]:
+    return [
+        f"`{row['baseline']}`",
+        str(row["n_agents"]),
+        row["observes"],
+        *(_score_cell(row[suite]) for suite in HEADLINE_SUITES),
+        _number(row["full_cabin_coverage"], ".3f"),
+        _number(row["full_cabin_time"], ".1f"),
+        _score_cell(row["success"]),
+        _cost_cell(row["cost"]),
+        str(row["seeds"]),
+    ]
+
+
 def headline_markdown(rows: list[dict]) -> str:
-    """The table and the sentences a reader needs to read it."""
-    header = (
-        "| method | K | observes | score, cabin-v1-test | score, cabin-v1-ood | full_cabin coverage | "
-        "full_cabin time (s) | cleaned, test | training (env steps, wall-clock) | seeds |"
-    )
-    lines = [header, "|" + "---|" * 10]
-    for row in rows:
-        cells = [
-            f"`{row['baseline']}`",
-            str(row["n_agents"]),
-            row["observes"],
-            *(_score_cell(row[suite]) for suite in HEADLINE_SUITES),
-            _number(row["full_cabin_coverage"], ".3f"),
-            _number(row["full_cabin_time"], ".1f"),
-            _score_cell(row["success"]),
-            _cost_cell(row["cost"]),
-            str(row["seeds"]),
-        ]
-        lines.append("| " + " | ".join(cells) + " |")
+    """The headline table in Markdown."""
+    lines = ["| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)]
+    lines += ["| " + " | ".join(_cells(row)) + " |" for row in rows]
     return "\n".join(lines)
+
+
+def headline_html(rows: list[dict]) -> str:
+    """The same table for the site's first page."""
+    head = "".join(f"<th>{escape(title)}</th>" for title in HEADER)
+    body = "".join(
+        "<tr>" + "".join(f"<td>{escape(cell.strip('`'))}</td>" for cell in _cells(row)) + "</tr>"
+        for row in rows
+    )
+    return (
+        f"<h2>Headline: one row per method</h2><p>{escape(EXPLANATION)}</p>"
+        f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+    )
 
 
 def _number(value: float, number_format: str) -> str:

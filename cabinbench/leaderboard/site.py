@@ -76,9 +76,11 @@ def build_site(
     training: Path,
     citation: Path,
     command: str,
+    headline: str = "",
 ) -> list[Path]:
     """Write the site into ``out``; return its pages. ``entries``: the classic rows and every
-    submission's; ``suites``: our records run in a suite other than ``classic``."""
+    submission's; ``suites``: our records run in a suite other than ``classic``; ``headline``: the
+    headline table's HTML, the first thing the site shows."""
     prepare(out)
     for asset in ASSETS:
         (out / asset).write_bytes(files("cabinbench.leaderboard").joinpath("site_files", asset).read_bytes())
@@ -95,7 +97,9 @@ def build_site(
     (out / "leaderboard.csv").write_text(site_csv(classic), encoding="utf-8")
     written = [out / "index.html"]
     records = sum(len(entry.episodes) for entry in classic)
-    written[-1].write_text(index_page("classic", classic, cite, records, command, nav), encoding="utf-8")
+    written[-1].write_text(
+        index_page("classic", classic, cite, records, command, nav, headline), encoding="utf-8"
+    )
     baselines = sorted({entry.row["baseline"] for entry in classic})
     for suite in names:
         own = suites[suites["suite"] == suite] if not suites.empty else suites

@@ -167,7 +167,10 @@ def layout_page(name: str, entries: list[Entry], figures: Path, out: Path, comma
     return page(name, "\n".join(body), "../", nav, command)
 
 
-def index_page(suite: str, entries: list[Entry], cite: str, records: int, command: str, nav: str) -> str:
+def index_page(
+    suite: str, entries: list[Entry], cite: str, records: int, command: str, nav: str, headline: str = ""
+) -> str:
+    """The site's first page: the headline table (``headline``, HTML), then the named layouts' board."""
     own = [entry for entry in entries if not entry.is_submission]
     versions = sorted({str(version) for entry in own for version in entry.episodes["benchmark_version"]})
     layouts = sorted(
@@ -184,6 +187,8 @@ def index_page(suite: str, entries: list[Entry], cite: str, records: int, comman
     )
     body = [
         f"<h1>cabinbench leaderboard: {escape(suite)}</h1>",
+        headline,
+        "<h2>Named layouts</h2>",
         f"<p>{len(entries)} rows from {records} episodes; "
         f"benchmark version {escape(', '.join(versions) or 'n/a')}. "
         "Cells are <code>mean ± half-width of the 95% percentile-bootstrap interval</code> over episodes "

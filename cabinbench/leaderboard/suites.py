@@ -49,7 +49,12 @@ from cabinbench.stats import (
 )
 
 SUITE_KEY = ["baseline", "protocol", "n_agents"]
-SCORES = {"coverage": ".3f", "path_efficiency": ".3f", "time": ".1f"}  # stratified bootstrap, format
+SCORES = {
+    "clean_score": ".3f",
+    "coverage": ".3f",
+    "path_efficiency": ".3f",
+    "time": ".1f",
+}  # stratified bootstrap, format
 PROFILES = {"coverage": (0.5, 0.8, 0.9, 0.95), "path_efficiency": (0.2, 0.4, 0.6)}  # levels in the table
 PROFILE_LEVELS = np.linspace(0.0, 1.0, 101)  # the figure's levels
 IMPROVEMENT_METRIC = "coverage"
@@ -421,6 +426,22 @@ def gap_section(records: pd.DataFrame) -> list[str]:
         seeds = seeds[:1] if len(set(seeds)) == 1 else seeds
         lines.append(f"| {row['baseline']} | {'/'.join(seeds)} | " + " | ".join(scores + gaps) + " |")
     return lines + ["", gap_finding(rows), ""]
+
+
+def suites_csv(records: pd.DataFrame) -> pd.DataFrame:
+    """Every suite's rows (:func:`suite_rows`) as CSV columns, one row per (suite, baseline, protocol, K)."""
+    table = []
+    for suite, episodes in records.groupby("suite", sort=True):
+        for row in suite_rows(episodes)[0]:
+            entry = {
+                "suite": suite,
+                **{key: row[key] for key in (*SUITE_KEY, "policies", "layouts", "episodes")},
+            }
+            for metric in (*SCORES, "success"):
+                for field, value in row[metric].as_dict().items():
+                    entry[f"{metric}_{field}"] = value
+            table.append(entry)
+    return pd.DataFrame(table)
 
 
 def suites_section(records: pd.DataFrame, out) -> tuple[str, list]:

@@ -32,7 +32,8 @@ COLUMNS = {
     "time": ("time (s)", ".1f"),
     "t90": ("t90 (s) [reached]", ".1f"),
     "collisions": ("collisions", ".1f"),
-    "success": ("success [Wilson]", ".2f"),
+    "clean_score": ("score", ".3f"),
+    "success": ("cleaned [Wilson]", ".2f"),
 }
 CONFIG_FIELDS = ("layout_hash", "env_config", "baseline_config")  # should not differ within a row
 SHIPPED = "shipped"  # the policy a learned baseline runs when no checkpoint is given
@@ -212,7 +213,8 @@ def distinct_cell(row: dict) -> str:
     return str(row["distinct_episodes"])
 
 
-def markdown(rows: list[dict], records: pd.DataFrame, runs: str, command: str, notes: list[str]) -> str:
+def document_header(records: pd.DataFrame, runs: str, command: str) -> str:
+    """The top of ``leaderboard.md``: what generated it, from what, and how to cite it."""
     versions = ", ".join(sorted(set(records["benchmark_version"].astype(str))))
     commits = sorted({str(commit)[:12] for commit in records["git_commit"] if isinstance(commit, str)})
     lines = [
@@ -225,6 +227,15 @@ def markdown(rows: list[dict], records: pd.DataFrame, runs: str, command: str, n
         f"{len(records)} episodes from {records['source'].nunique()} record files; benchmark version "
         f"{versions}; code commits {', '.join(commits) if commits else 'unknown'}.",
         "",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def markdown(rows: list[dict], notes: list[str]) -> str:
+    """The named layouts' table: a row per layout, method, policy, protocol and K."""
+    lines = [
+        "## Named layouts: every method, policy and protocol",
+        "",
         "Cells are `mean ± half-width of the 95% interval` (exact, possibly asymmetric bounds in "
         "`leaderboard.csv`). Intervals run over distinct episodes only: episodes with the same outcome "
         "in every metric are one episode repeated and count once, so a deterministic baseline from the "
@@ -235,7 +246,7 @@ def markdown(rows: list[dict], records: pd.DataFrame, runs: str, command: str, n
         "stratified bootstrap that resamples seeds and episodes within each seed. Success: the rate "
         "with its Wilson interval `[low, high]` over the distinct episodes. IQM: interquartile mean of "
         "coverage. t90: mean over the episodes that reached 90% coverage, [the fraction that did]. "
-        "Complexity: the layout's navigation complexity (seed §4.1), normalised / total. Definitions: "
+        "Complexity: the layout's navigation complexity (the study's §4.1), normalised / total. Definitions: "
         "`cabinbench/metrics.py` (metrics), `cabinbench/stats.py` (statistics).",
         "",
     ]

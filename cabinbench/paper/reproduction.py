@@ -19,7 +19,6 @@ Intervals are 95 % percentile-bootstrap intervals over episodes (:mod:`cabinbenc
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from collections.abc import Callable
 from pathlib import Path
@@ -30,6 +29,7 @@ from cabinbench.envs.coverage_env import CoverageEnv
 from cabinbench.layouts.complexity import layout_complexity
 from cabinbench.layouts.load import builtin_layout_dir
 from cabinbench.layouts.resolve import load_layout
+from cabinbench.leaderboard.headline import CHECKPOINTS  # the study's pair keeps its records beside them
 from cabinbench.records import read_trajectories
 from cabinbench.sim.events import RobotEvents, StepEvents
 from cabinbench.sim.physics import TIME_STEP
@@ -37,11 +37,6 @@ from cabinbench.sim.rewards import paper
 from cabinbench.stats import mean_ci
 
 RANDOM = ("random_bounce", "random_bounce_study")
-# The study's pair keeps its records beside its checkpoints (read as files: the paper needs no torch).
-# The shipped checkpoints, found without importing the learner (the core imports no baseline).
-STUDY_CHECKPOINTS = (
-    Path(importlib.util.find_spec("cabinbench.baselines.ppo_gail").origin).parent / "checkpoints"
-)
 STUDY_STAGES = ("cleaning", "tracking")
 STUDY_RANDOM_SECONDS = 60.0  # Fig. 5.12(e): the random robot's 3000 steps took "around 60s"
 LEARNERS = ("ppo_gail_study", "ppo_gail")  # the study's configuration, then our tuned variant
@@ -112,7 +107,7 @@ def episodes(records: pd.DataFrame, layout: str, baseline: str) -> pd.DataFrame:
     return records[chosen]
 
 
-def training_config(results: Path, learner: str, study_checkpoints: Path = STUDY_CHECKPOINTS) -> dict | None:
+def training_config(results: Path, learner: str, study_checkpoints: Path = CHECKPOINTS) -> dict | None:
     """The learner's training configuration, with ``trained``: (steps, layouts) per network. For
     ``ppo_gail_study`` the cleaning network's, and the steps each network reached of those planned
     (its ``.training.json`` in ``study_checkpoints``). None without the files (see ``training_record``)."""
@@ -446,9 +441,7 @@ def transfer_rows(records: pd.DataFrame, learners: list[str]) -> list[str]:
     return rows
 
 
-def reproduction_table(
-    records: pd.DataFrame, results: Path, study_checkpoints: Path = STUDY_CHECKPOINTS
-) -> str:
+def reproduction_table(records: pd.DataFrame, results: Path, study_checkpoints: Path = CHECKPOINTS) -> str:
     """The reproduction report's table (see the module doc); the study's pair's training records are
     read from ``study_checkpoints``."""
     configs = {learner: training_config(results, learner, study_checkpoints) for learner in LEARNERS}

@@ -70,6 +70,16 @@ def findings(rows: list[dict]) -> list[str]:
                 else f"the learned policies clean the floor in at most {cleaned:.0%} of test episodes."
             )
         )
+    study = next((row for row in ranked if row["baseline"] == "ppo_gail_study"), None)
+    walk = next((row for row in ranked if row["baseline"] == "random_bounce"), None)
+    if study and walk:
+        relation = "below" if study[test].mean < walk[test].mean else "above"
+        strength = "" if separated(study[test], walk[test]) else ", though the intervals overlap"
+        sentences.append(
+            f"The study's configuration as we run it, `ppo_gail_study`, scores "
+            f"{score_text(study[test], _unit(study, test))}, {relation} random motion's "
+            f"{score_text(walk[test], _unit(walk, test))}{strength}."
+        )
     ood_ranked = _scored([row for row in rows if row["n_agents"] == 1], ood)
     if ood_ranked:
         drops = [
@@ -116,3 +126,37 @@ def compute_table(rows: list[dict]) -> str:
             f"{cost.wall_clock_s / 3600:.2f} | {cost.runs * cost.wall_clock_s / 3600:.2f} |"
         )
     return "\n".join(lines)
+
+
+FIGURE_CAPTIONS = {
+    "trajectory": "The first episode of `{1}` on `{0}` ({2} protocol, K = {3}): the floor it covered "
+    "(shaded) and the path of each robot.",
+    "coverage_time": "Coverage of `{0}` over simulated time, one line per method: the median over episodes "
+    "and the interquartile band.",
+    "bars_coverage": "Coverage of `{0}` per method and protocol: the mean and its 95% bootstrap interval.",
+    "bars_time": "Episode time on `{0}` per method and protocol: the mean and its 95% bootstrap interval.",
+    "suite": "`{0}`: {1}.",
+    "training": "Training curves of `{0}` (the shipped seed): per-iteration metrics and, where recorded, "
+    "the validation episodes.",
+    "makespan_agents": "Team makespan against the number of robots K, per layout (dashed: the ideal T(1)/K).",
+    "ablation_coverage": "Coverage of each ablation on the four cabin layouts, every training seed.",
+}
+SUITE_FIGURES = {
+    "profiles": "performance profiles, the share of layouts above each level",
+    "improvement": "probability of improvement P(X > Y) on coverage, every ordered pair of methods",
+    "complexity": "coverage and T90 against normalised complexity and against coverable area, one point "
+    "per layout",
+}
+
+
+def figure_caption(stem: str) -> str:
+    """The caption of a leaderboard figure, from its file name (``kind__part__part...``)."""
+    kind, *parts = stem.split("__")
+    if kind == "trajectory" and len(parts) == 4:
+        parts[3] = parts[3].removeprefix("k")
+    if kind == "suite" and len(parts) == 2:
+        parts = [parts[0], SUITE_FIGURES.get(parts[1], parts[1])]
+    template = FIGURE_CAPTIONS.get(kind)
+    if template is None or template.count("{") > len(parts):
+        return f"`{stem}`."
+    return template.format(*parts)
