@@ -21,10 +21,12 @@ float of every metric is not a coincidence worth planning for.
 - :func:`iqm`: the interquartile mean, ``scipy.stats.trim_mean(x, 0.25)`` (Agarwal et al. 2021).
 - :func:`reach_time`: for ``t90``/``t95``/``t99``, null in episodes that never reached the
   threshold: the mean (and interval) over the episodes that did, plus the fraction that did.
-- :func:`stratified_bootstrap`: a score over several layouts (and, for a learned baseline, several
-  training seeds): the mean over training seeds of the mean over layouts of per-layout means, with
-  a stratified bootstrap interval that resamples training seeds, layouts, and episodes within each
-  (seed, layout) cell, as rliable recommends.
+- :func:`stratified_bootstrap`: a score over several layouts: the mean over layouts of per-layout
+  means, with a stratified bootstrap interval that resamples layouts, and episodes within each
+  layout, as rliable recommends (several training seeds are resampled too where it is called on
+  them: the generalisation gap).
+- :func:`across_seeds` and :func:`t_interval`: over training seeds, each seed's own value first,
+  then a Student-t interval over the seeds (n = seeds), honest for the few seeds a benchmark has.
 - :func:`stratified_difference`: the difference of two such scores over the same training seeds on
   different layouts (a generalisation gap), the seeds resampled jointly.
 - :func:`performance_profile`: the fraction of layouts whose score is above each level.
@@ -162,11 +164,14 @@ def summarize(metric: str, values) -> Summary:
 
 
 def summarize_cells(metric: str, cells: Mapping[tuple[str, str], Sequence]) -> Summary:
-    """The summary a metric gets over (training seed, layout) cells of distinct episodes: one cell
-    is :func:`summarize`; several are :func:`stratified_bootstrap`, except rates, whose Wilson
-    interval is over the pooled episodes (it takes them as independent draws: the spread between
-    training seeds shows in each seed's own row), and threshold times, whose interval runs over
-    the cells where some episode reached the threshold (``reached``: the pooled fraction)."""
+    """The summary a metric gets over (training seed, layout) cells of distinct episodes. Several
+    training seeds: each seed's own value first, then a t interval over the seeds
+    (:func:`across_seeds`, n = seeds). One seed: one cell is :func:`summarize`; several layouts are
+    :func:`stratified_bootstrap`, except rates, whose Wilson interval is over the pooled episodes,
+    and threshold times, whose interval runs over the cells where some episode reached the
+    threshold (``reached``: the pooled fraction)."""
+    if len({policy for policy, _ in cells}) > 1:
+        return across_seeds(metric, cells)
     if len(cells) == 1 or metric in RATES:
         return summarize(metric, [value for cell in cells.values() for value in cell])
     if metric not in REACH_TIMES:
@@ -188,6 +193,25 @@ def summarize_cells(metric: str, cells: Mapping[tuple[str, str], Sequence]) -> S
     summary = stratified_bootstrap(complete) if complete else Summary(math.nan, math.nan, math.nan, 0)
     fraction = float((~np.isnan(pooled)).mean())
     return Summary(summary.mean, summary.low, summary.high, summary.n, reached=fraction)
+
+
+def across_seeds(metric: str, cells: Mapping[tuple[str, str], Sequence]) -> Summary:
+    """Each training seed's value of ``metric`` over its own layouts (:func:`summarize_cells`; a
+    rate is the seed's own rate), then the mean over seeds with a Student-t interval (n = seeds):
+    a bootstrap over three seeds cannot reach beyond the seeds observed. Threshold times keep the
+    pooled fraction of episodes that reached the threshold."""
+    policies = sorted({policy for policy, _ in cells})
+    per_seed = [
+        summarize_cells(metric, {key: cell for key, cell in cells.items() if key[0] == policy}).mean
+        for policy in policies
+    ]
+    summary = t_interval([value for value in per_seed if not math.isnan(value)])
+    if metric not in REACH_TIMES:
+        return summary
+    pooled = _numbers(np.nan if value is None else value for cell in cells.values() for value in cell)
+    return Summary(
+        summary.mean, summary.low, summary.high, summary.n, reached=float((~np.isnan(pooled)).mean())
+    )
 
 
 def _percentile_interval(estimates: np.ndarray) -> tuple[float, float]:

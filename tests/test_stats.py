@@ -19,6 +19,7 @@ from cabinbench.stats import (
     success_rate,
     summarize,
     summarize_cells,
+    t_interval,
 )
 
 RUNS = Path(__file__).resolve().parents[1] / "results" / "runs"
@@ -74,13 +75,21 @@ def test_stratified_bootstrap_by_hand():
 
 
 def test_summarize_cells():
+    # several training seeds: each seed's own rate, then a t interval over the seeds
     cells = {("s0", "a"): [True, True], ("s1", "a"): [True, False]}
-    assert summarize_cells("success", cells) == success_rate([True, True, True, False])  # pooled Wilson
+    assert summarize_cells("success", cells) == t_interval([1.0, 0.5])
+    # one seed: a Wilson interval over its episodes
+    assert summarize_cells(
+        "success", {("s0", "a"): [True, False], ("s0", "b"): [True, True]}
+    ) == success_rate([True, False, True, True])
     times = summarize_cells(
         "t90", {("s0", "a"): [10.0, None], ("s1", "a"): [None, None], ("s2", "a"): [30.0, 50.0]}
     )
-    assert times.reached == 0.5 and times.mean == pytest.approx((10.0 + 40.0) / 2)
+    # seed s1 never reached 90 %: the seeds that did count, and the pooled share that reached it
+    assert times.reached == 0.5 and times.mean == pytest.approx((10.0 + 40.0) / 2) and times.n == 2
     assert summarize_cells("coverage", {("s0", "a"): [0.5, 0.7]}) == mean_ci([0.5, 0.7])
+    seeds = summarize_cells("coverage", {("s0", "a"): [0.2], ("s1", "a"): [0.5], ("s2", "a"): [0.8]})
+    assert seeds.n == 3 and seeds.low < 0.2 and seeds.high > 0.8  # beyond the seeds observed
 
 
 def test_performance_profile_by_hand():
