@@ -60,7 +60,7 @@ class RandomBounceStudy(RandomBounce):
     collision occurs, then turns its heading with a random degree"), so any new heading, uniform in
     ±[0, π], where ``random_bounce`` turns at least π/4 (a turn of a few degrees only meets the same
     wall again). The study ran it for 3000 steps (§5.2.3): record it with ``--max-steps 3000``, as
-    ``results/make_results.sh`` does. Its steps were Unity's 0.02 s and ours are 0.1 s, so 3000 steps
+    ``scripts/make_results.sh`` does. Its steps were Unity's 0.02 s and ours are 0.1 s, so 3000 steps
     here are 300 s of driving against the study's 60 s; the paper's reproduction report gives both.
     """
 

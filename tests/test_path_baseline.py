@@ -256,3 +256,22 @@ def test_export_refuses_a_team_in_a_one_path_format(tmp_path):
         export("boustrophedon", "a320_cell", tmp_path / "team.csv", n_agents=2)
     with pytest.raises(BaselineError, match="has no plan to export"):
         export_plan("random_bounce", "a320_cell", tmp_path / "plan.csv")
+
+
+def test_run_exports_a_plan_and_reports_planned_beside_executed(tmp_path, capsys):
+    """``run --export-path`` writes the planner's plan; ``run --baseline path`` on it prints and records
+    the plan's footprint sweep beside the executed metrics."""
+    import json
+    from pathlib import Path
+
+    plan = tmp_path / "plan.csv"
+    out = ["--layout", "a320_cell", "--episodes", "1", "--out", str(tmp_path / "runs")]
+    assert run.main(["--baseline", "boustrophedon", "--export-path", str(plan), *out]) == 0
+    capsys.readouterr()
+    assert run.main(["--baseline", "path", "--config", json.dumps({"file": str(plan)}), "--json", *out]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["planned"]["planned_coverage"] >= summary["metrics"]["coverage"]["mean"] > 0.95
+    record = json.loads(Path(summary["records"]).read_text().splitlines()[0])
+    assert record["planned_length"] == summary["planned"]["planned_length"]
+    bad = ["--baseline", "boustrophedon", "--suite", "classic", "--export-path", str(tmp_path / "x.csv")]
+    assert run.main([*bad, "--out", str(tmp_path / "runs")]) == 2

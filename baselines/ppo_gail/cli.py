@@ -44,13 +44,13 @@ exported policy to ``<ship-dir>/<baseline>.pt`` (``--ship-dir``, default the rep
 ``results/training/<baseline>/``, from which ``python -m cabinbench.leaderboard`` draws the committed training
 curves. ``--keep`` copies the policy, ``config.json``, ``metrics.csv`` and ``validation.csv`` to
 ``results/training/<baseline>/seed<S>/``: a further training run of the same command, which
-``results/make_results.sh`` scores into ``results/ablation.md``.
+``scripts/make_results.sh`` scores into ``results/ablation.md``.
 
 ``--seeds S ...`` trains one run per seed at once, each exactly as ``--seed S`` would, in its own run
 directory ``<name>__seed<S>`` in the folder ``--run-dir`` (default ``runs/train``), one CPU each
 (``--workers``): in local processes, or with ``--executor ray`` as Ray tasks on the cluster at ``--address``
 (or a local Ray instance; on several nodes the run directories must be on a shared filesystem). With several
-``--baseline`` names the sweep trains every seed of each (``results/train_policies.sh``: 4 x 3 runs).
+``--baseline`` names the sweep trains every seed of each (``scripts/train_policies.sh``: 4 x 3 runs).
 An interrupted sweep continues with the same command and ``--resume``: each unfinished seed resumes from its
 latest checkpoint, a finished one is only exported again.
 
@@ -269,7 +269,7 @@ def train_checked(args: argparse.Namespace, trainer: Trainer, config: TrainConfi
     if args.ship:
         print(trainer.ship(result, name, args.ship_dir, config))
     if args.keep:
-        print(f"kept: {keep(result, name, config)} (score it with the loop in results/make_results.sh)")
+        print(f"kept: {keep(result, name, config)} (score it with the loop in scripts/make_results.sh)")
     return 0
 
 

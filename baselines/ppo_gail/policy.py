@@ -326,7 +326,7 @@ class PPOGail(LearnedPolicy):
 class PPOGailSuite(PPOGail):
     """Our ppo_gail trained on the suite ``cabin-v1-train`` through ``CabinBench/Suite-v0`` (a new layout at
     every reset) instead of on the study's two cells: ``python -m cabinbench.train --baseline ppo_gail
-    --suite cabin-v1-train`` (``results/train_suite_policies.sh``). Its policy files record the suite they
+    --suite cabin-v1-train`` (``scripts/train_suite_policies.sh``). Its policy files record the suite they
     trained on."""
 
     name = "ppo_gail_suite"

@@ -19,7 +19,7 @@ The single-robot trainer (``baselines.ppo_gail.training``) runs unchanged: ``Tea
   them) on the few iterations a 2-core CPU affords;
 - validation plays the team (``n_agents`` robots) on each training layout.
 
-The shipped policy takes two such runs (``results/train_team_policies.sh``): K = 2 from ``ppo_gail``, then
+The shipped policy takes two such runs (``scripts/train_team_policies.sh``): K = 2 from ``ppo_gail``, then
 K = 4 from that policy with ``--init-policy`` and no entropy bonus (``docs/experiments.md``, "The learned
 team").
 

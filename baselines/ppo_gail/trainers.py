@@ -111,7 +111,7 @@ team's."""
 
 def keep(result: TrainResult, name: str, config: TrainConfig) -> Path:
     """Copy the policy and the run's records to ``results/training/<name>/seed<S>/``: a further run of the
-    same command, which ``results/make_results.sh`` scores into ``results/ablation.md``."""
+    same command, which ``scripts/make_results.sh`` scores into ``results/ablation.md``."""
     kept = TRAINING_RECORDS / name / f"seed{config.seed}"
     for record in (POLICY_FILE, *training_records(config)):
         copy_file(result.run_dir / record, kept / record)

@@ -18,7 +18,7 @@ Its episodes start from a pose drawn from the episode's seed (``--start random``
 for generated suites; ``classic`` and ``--layout`` keep the layout's own start, ``--start
 fixed``), and the step limit is each layout's (scaled with its coverable area), recorded in
 ``env_config``. ``DIR`` defaults to the working folder ``runs/``: the committed
-``results/runs`` are written by ``results/make_results.sh`` alone. ``--render`` draws the first
+``results/runs`` are written by ``scripts/make_results.sh`` alone. ``--render`` draws the first
 episode: a PNG of its final state (trajectory over the map, covered area shaded: the seed's
 Fig. 5.11) or an animated GIF. ``--reward`` takes a preset of :mod:`cabinbench.sim.rewards`.
 ``--submission FILE`` (with ``--suite``) also writes the run's records as one submission file for
@@ -71,7 +71,7 @@ from cabinbench.sim.world import PROTOCOLS, start_poses
 
 GIF_FRAMES = 100  # frames spread over the step limit; the GIF stops early if the episode does
 GIF_FRAME_MS = 80
-DEFAULT_OUT = "runs"  # a working folder: results/runs is written by results/make_results.sh only
+DEFAULT_OUT = "runs"  # a working folder: results/runs is written by scripts/make_results.sh only
 
 
 def parse_args(argv: list[str] | None):
@@ -128,6 +128,13 @@ def parse_args(argv: list[str] | None):
         metavar="FILE",
         type=output_file(".png", ".gif"),
         help="draw the first episode to FILE.png or animate it to FILE.gif",
+    )
+    parser.add_argument(
+        "--export-path",
+        metavar="FILE",
+        type=output_file(".csv", ".yaml", ".geojson"),
+        help="with --layout: write the planner's plan of the first episode as CSV, nav_msgs/Path YAML or "
+        "GeoJSON (run it back with --baseline path)",
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     parser.add_argument(
@@ -192,11 +199,39 @@ def check_settings(spec: str, config: dict) -> None:
         raise UsageError(f"--config: baseline {spec!r} does not take {', '.join(unknown)}; it takes {takes}")
 
 
+def planned_sweeps(baseline, layouts: dict[str, Layout], n_agents: int) -> dict[str, dict]:
+    """A baseline that follows a given plan (``path``) reports, per layout, the plan's static
+    footprint sweep (``planned_*``), which every record of that layout carries beside what was
+    executed; asking for it also checks the plan against every layout and the team before any file
+    is written. Empty for any other baseline."""
+    if not callable(getattr(baseline, "planned", None)):
+        return {}
+    return {name: baseline.planned(layout, n_agents) for name, layout in layouts.items()}
+
+
+def export_plan(args, suite: str | None, layouts: dict[str, Layout], random_start: bool) -> None:
+    """``--export-path``: the planner's plan of the run's first episode, in the file's format."""
+    if suite:
+        raise UsageError("--export-path goes with --layout: it writes one layout's plan")
+    layout = next(iter(layouts.values()))
+    written = baseline_class("path").export_plan(
+        args.baseline,
+        layout,
+        args.export_path,
+        args.agents,
+        args.seed,
+        args.protocol,
+        random_start,
+        args.config,
+    )
+    print(f"plan: {written}", file=sys.stderr if args.json else sys.stdout)
+
+
 def collect(
-    results, writers: dict[str, RunWriter], total: int
+    results, writers: dict[str, RunWriter], total: int, planned: dict[str, dict]
 ) -> tuple[list[EpisodeResult], list[JobFailure]]:
-    """Write each finished episode as it comes, to its layout's writer; return them, and the jobs
-    whose worker died."""
+    """Write each finished episode as it comes, to its layout's writer (with its layout's ``planned``
+    figures); return them, and the jobs whose worker died."""
     finished, failed = [], []
     try:
         with tqdm(total=total, unit="episode", file=sys.stderr, dynamic_ncols=True) as progress:
@@ -205,7 +240,8 @@ def collect(
                 if isinstance(result, JobFailure):
                     failed.append(result)
                     continue
-                writers[result.job.layout].write(result.job.episode, result.record, result.trajectory)
+                record = result.record | planned.get(result.job.layout, {})
+                writers[result.job.layout].write(result.job.episode, record, result.trajectory)
                 finished.append(result)
                 progress.set_postfix(coverage=f"{result.record['coverage']:.3f}")
     finally:
@@ -332,13 +368,16 @@ def episode_jobs(
     return jobs, writers
 
 
-def write_outputs(args, suite: str | None, finished, failed, jobs, writers: dict[str, RunWriter]) -> None:
+def write_outputs(
+    args, suite: str | None, finished, failed, jobs, writers: dict[str, RunWriter], planned: dict[str, dict]
+) -> None:
     """The render of the first episode, the summary, and (when no episode failed) the submission."""
     first = next((result for result in finished if result.job == jobs[0]), None)
     if args.render and first is not None:  # the first episode's worker may have died
         save_render(first.trajectory["frames"], args.render)
     if finished:
-        report(args, suite or next(iter(writers.values())).header["layout"], finished, list(writers.values()))
+        name = suite or next(iter(writers.values())).header["layout"]
+        report(args, name, finished, list(writers.values()), planned)
     if args.submission and not failed:
         records = [
             json.loads(line)
@@ -377,14 +416,17 @@ def say_failed(failed: list[JobFailure]) -> None:
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     suite, layouts, episodes, random_start, baseline = prepare(args)
+    planned = planned_sweeps(baseline, layouts, args.agents)
+    if args.export_path:
+        export_plan(args, suite, layouts, random_start)
     executor = make_executor(args)  # a missing Ray or cluster is refused before any file is written
     jobs, writers = episode_jobs(args, suite, layouts, episodes, random_start, baseline)
     try:
         # What workers and Ray print is a diagnostic (stderr): stdout holds the summary (--json: one object).
         # The executor closes first: Ray's notices (a worker died) may arrive until it has shut down.
         with contextlib.redirect_stdout(sys.stderr), executor:
-            finished, failed = collect(run_jobs(jobs, executor), writers, len(jobs))
-        write_outputs(args, suite, finished, failed, jobs, writers)
+            finished, failed = collect(run_jobs(jobs, executor), writers, len(jobs), planned)
+        write_outputs(args, suite, finished, failed, jobs, writers, planned)
     except KeyboardInterrupt:
         say_interrupted(writers)
         return EXIT_INTERRUPTED

@@ -73,9 +73,26 @@ def format_table(summaries: dict[str, Summary], title: str, seconds: dict) -> st
     return "\n".join(lines)
 
 
-def report(args, name: str, finished: list[EpisodeResult], writers: list[RunWriter]) -> None:
+def format_planned(planned: dict, summaries: dict[str, Summary]) -> str:
+    """A path's planned figures (its static footprint sweep) beside the executed means."""
+    rows = [
+        ("coverage", planned["planned_coverage"], summaries["coverage"].mean),
+        ("length (m)", planned["planned_length"], summaries["path_length"].mean),
+        ("turning (rad)", planned["planned_turning"], summaries["rotation"].mean),
+    ]
+    lines = ["", f"{'plan (footprint sweep)':<30} {'planned':>10} {'executed':>10}"]
+    lines += [f"{label:<30} {plan:>10.4g} {done:>10.4g}" for label, plan, done in rows]
+    lines.append(f"{'turns':<30} {planned['planned_turns']:>10d}")
+    lines.append(f"{'off the floor (m)':<30} {planned['planned_off_floor_length']:>10.4g}")
+    lines.append(f"{'where the robot cannot be (m)':<30} {planned['planned_unreachable_length']:>10.4g}")
+    return "\n".join(lines)
+
+
+def report(
+    args, name: str, finished: list[EpisodeResult], writers: list[RunWriter], planned: dict[str, dict]
+) -> None:
     """The summary on stdout: a table, or with ``--json`` one JSON object (with ``--suite``,
-    ``records`` and ``trajectories`` list one file per layout)."""
+    ``records`` and ``trajectories`` list one file per layout); a path's ``planned`` figures beside."""
     order = {job_layout: index for index, job_layout in enumerate(w.header["layout"] for w in writers)}
     finished = sorted(
         finished, key=lambda result: (order.get(result.record.get("layout"), 0), result.job.episode)
@@ -99,6 +116,7 @@ def report(args, name: str, finished: list[EpisodeResult], writers: list[RunWrit
                     "records": paths if args.suite else paths[0],
                     "trajectories": trajectories if args.suite else trajectories[0],
                     "render": render,
+                    "planned": (planned if args.suite else planned.get(name)) or None,
                     "metrics": {metric: summary.as_dict() for metric, summary in summaries.items()}
                     | {WALL_TIME: wall_time(records)},
                 }
@@ -113,6 +131,8 @@ def report(args, name: str, finished: list[EpisodeResult], writers: list[RunWrit
         + ("; mean over layouts of per-layout means, stratified bootstrap" if args.suite else "")
     )
     print(format_table(summaries, title, wall_time(records)))
+    if planned and not args.suite:
+        print(format_planned(planned[name], summaries))
     if args.suite:
         print(f"\nrecords: {len(paths)} files in {Path(paths[0]).parent} (trajectories beside them, .npz)")
     else:

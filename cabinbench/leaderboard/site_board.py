@@ -20,7 +20,7 @@ from cabinbench.leaderboard.site_html import (
 from cabinbench.leaderboard.table import COLUMNS, distinct_cell
 from cabinbench.records import safe_name
 
-OWN_ENTRY = "cabinbench"  # the entry column of rows recorded by results/make_results.sh
+OWN_ENTRY = "cabinbench"  # the entry column of rows recorded by scripts/make_results.sh
 
 
 @dataclass

@@ -407,7 +407,7 @@ def gap_section(records: pd.DataFrame) -> list[str]:
         "of the stratified bootstrap 95% interval (training seeds, layouts and episodes resampled); a gap is "
         "held-out minus train, its interval with the training seeds resampled jointly. ppo_gail trained on "
         "the seed's two A320 cells, ppo_gail_suite on every layout of cabin-v1-train "
-        "(`results/train_suite_policies.sh`). Training seeds: per split when they differ (train/test/ood).",
+        "(`scripts/train_suite_policies.sh`). Training seeds: per split when they differ (train/test/ood).",
         "",
         "| baseline | training seeds | train (layouts) | test (layouts) | ood (layouts) | test − train | "
         "ood − train |",

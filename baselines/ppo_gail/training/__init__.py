@@ -41,7 +41,7 @@ The shipped policies (``baselines/ppo_gail/checkpoints``) come from ``python -m 
 NAME --ship`` with the defaults below: 3.3 M steps, seed 0, 12-27 minutes a run on a 2-core CPU. ``--ship``
 also keeps the run's ``config.json``, ``metrics.csv`` and ``validation.csv`` in ``results/training/``, from
 which the leaderboard draws the training curves. Training is deterministic on a CPU (seeded, one torch
-thread, envs seeded per index): ``results/train_policies.sh`` retrains all twelve policies of the results
+thread, envs seeded per index): ``scripts/train_policies.sh`` retrains all twelve policies of the results
 (four ablations, seeds 0-2). Training times and the trials behind every default: ``docs/experiments.md``.
 """
 

@@ -309,7 +309,7 @@ CHECKPOINT_DIR, DEMO_DIR, VALIDATION_DIR = "checkpoints", "demos", "validation"
 
 VALIDATION_SEED = 1_000_000
 """Validation episode ``i`` uses seed ``VALIDATION_SEED + i``: not a seed the leaderboard plays (0-403,
-``results/make_results.sh``), so a policy is never judged (or, with ``export="best"``, chosen) on the episodes
+``scripts/make_results.sh``), so a policy is never judged (or, with ``export="best"``, chosen) on the episodes
 it is scored on."""
 
 

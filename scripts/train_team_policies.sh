@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Train ppo_gail_team, the learned team (one policy shared by every robot), in two stages per seed; seeds 0, 1
+# and 2 one after another (about 15 + 7 minutes a seed on a free core of this 2-core machine):
+# 1. K = 2 on full_cabin: 450 iterations from the shipped ppo_gail's actor with TeamTrainConfig's defaults, the
+#    checkpoint best on validation exported; its records (config, metrics, validation, policy) are kept in
+#    results/training_runs/ppo_gail_team_k2__seed<S>/. A seed whose stage-1 policy is there skips this stage.
+# 2. K = 4: 100 iterations from stage 1's policy without the entropy bonus (with it the action std grows and the
+#    team slows down: docs/experiments.md, "The learned team"), a checkpoint every 25 validated with four
+#    robots, the best exported. Seed 0 is installed with --ship (baselines/ppo_gail/checkpoints/ppo_gail_team.pt,
+#    results/training/ppo_gail_team/), seeds 1 and 2 kept with --keep (results/training/ppo_gail_team/seed<S>/).
+# An interrupted stage continues with the same command: a run directory with checkpoints is resumed.
+# Usage: bash scripts/train_team_policies.sh [SEED ...]   (from the repository root; default seeds 0 1 2), then
+# bash scripts/make_results.sh learned to score them.
+set -euo pipefail
+seeds=${*:-0 1 2}
+resume_flag() { if [ -d "$1/checkpoints" ]; then echo --resume; fi; }
+for seed in $seeds; do
+  stage1=results/training_runs/ppo_gail_team_k2__seed$seed
+  if [ ! -f "$stage1/policy.pt" ]; then
+    run_dir=runs/train/ppo_gail_team_k2__seed$seed
+    python -m cabinbench.train --baseline ppo_gail_team --layout full_cabin --agents 2 --seed "$seed" \
+      --iterations 450 --export best --run-dir "$run_dir" $(resume_flag "$run_dir") --no-progress
+    mkdir -p "$stage1"
+    cp "$run_dir"/{policy.pt,config.json,metrics.csv,validation.csv} "$stage1/"
+  fi
+  if [ "$seed" = 0 ]; then install=--ship; else install=--keep; fi
+  run_dir=runs/train/ppo_gail_team__seed$seed
+  python -m cabinbench.train --baseline ppo_gail_team --layout full_cabin --agents 4 --seed "$seed" \
+    --iterations 100 --save-interval 25 --export best --init-policy "$stage1/policy.pt" \
+    --algorithm '{"entropy_coef": 0.0, "gail_strength": 0.02}' --run-dir "$run_dir" $(resume_flag "$run_dir") \
+    $install --no-progress
+  echo "seed $seed finished at $(date -u +%H:%M:%S)"
+done
