@@ -1,4 +1,4 @@
-"""``random_bounce``: the seed's random motion (§2.2.1, §5.2.3), the way consumer robots clean.
+"""``random_bounce``: the study's random motion (§2.2.1, §5.2.3), the way consumer robots clean.
 
 Drive straight at full speed until the bumper fires, then turn on the spot by a random angle
 (uniform in ±[``min_turn``, π]) and drive on. The bumper fires on a new contact event

@@ -7,7 +7,7 @@ one record per episode. Definitions (areas are counted on the 0.05 m raster):
   pose covers, a reachable pose being a pixel centre connected to the start whose disc keeps
   1 cm from every wall; so 1.0 is achievable without touching anything; it ends within one
   pixel, 5 cm, of the walls);
-- ``coverage_free``: covered floor / all floor (the seed's definition, Fig. 5.11);
+- ``coverage_free``: covered floor / all floor (the study's definition, Fig. 5.11);
 - ``path_length``: metres travelled by the robot centre (team: all robots together);
 - ``path_efficiency``: L_LB / path_length with L_LB = (area covered after the start pose) / tool
   width, the physical lower bound for covering that area; 1 for a straight drive. The design card

@@ -8,7 +8,7 @@ metric of :mod:`cabinbench.metrics` (``METRICS``, plus ``TEAM_METRICS`` for K > 
 - ``git_commit``: ``git rev-parse HEAD`` of the source tree, or null when that fails;
 - ``layout``, ``layout_hash`` (:attr:`Layout.content_hash`: the YAML text's SHA-256, 16 hex; for
   a generated layout its geometry's), ``layout_complexity`` (``{"normalized": ..., "total": ...}``,
-  seed §4.1, as measured when the episode ran; reports read the current measure through
+  the study's §4.1, as measured when the episode ran; reports read the current measure through
   :func:`with_current_complexity`), ``suite`` (the suite the layout was played in,
   :mod:`cabinbench.suites`, or null);
 - ``baseline`` (the name or ``package.module:Class`` given), ``baseline_config`` (its settings);

@@ -36,7 +36,7 @@ if $classic; then
     done
   done
 
-  # The seed's random motion as it describes it (§2.2.1, §5.2.3): any new heading, its 3000-step limit.
+  # The study's random motion as it describes it (§2.2.1, §5.2.3): any new heading, its 3000-step limit.
   run --baseline random_bounce_study --layout a320_cell --protocol sequential --max-steps 3000
 
   # Classic baselines on the building maps (one cell each, so the protocols coincide): plain coverage.

@@ -1,4 +1,4 @@
-"""Navigation complexity reproduces the seed's Table 4.1 and Eq. 4.7/4.8, keeps the cabins' legroom
+"""Navigation complexity reproduces the study's Table 4.1 and Eq. 4.7/4.8, keeps the cabins' legroom
 gaps, and comes as near Table 4.2 as the study's description of its cabin map allows."""
 
 import itertools

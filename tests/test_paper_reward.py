@@ -1,6 +1,6 @@
-"""Every term of the ``paper`` reward preset (the seed's Tables 4.4 and 4.5), each paid by the real
+"""Every term of the ``paper`` reward preset (the study's Tables 4.4 and 4.5), each paid by the real
 env on the step its event happens: +0.5 a new goal, -0.3 an obstacle hit, -10 a bound (and the
-episode ends where the seed's does), -0.01 every step, 3 set on the step that clears a cell, +2 the
+episode ends where the study's does), -0.01 every step, 3 set on the step that clears a cell, +2 the
 exit landmark."""
 
 import math

@@ -1,4 +1,4 @@
-"""The seed's cell-by-cell protocol, end to end through physics: goals clear a cell, bounds block
+"""The study's cell-by-cell protocol, end to end through physics: goals clear a cell, bounds block
 and count, exits move the robot on and the bound closes behind it."""
 
 import numpy as np

@@ -19,7 +19,7 @@ for generated suites; ``classic`` and ``--layout`` keep the layout's own start, 
 fixed``), and the step limit is each layout's (scaled with its coverable area), recorded in
 ``env_config``. ``DIR`` defaults to the working folder ``runs/``: the committed
 ``results/runs`` are written by ``scripts/make_results.sh`` alone. ``--render`` draws the first
-episode: a PNG of its final state (trajectory over the map, covered area shaded: the seed's
+episode: a PNG of its final state (trajectory over the map, covered area shaded: the study's
 Fig. 5.11) or an animated GIF. ``--reward`` takes a preset of :mod:`cabinbench.sim.rewards`.
 ``--submission FILE`` (with ``--suite``) also writes the run's records as one submission file for
 the leaderboard (:mod:`cabinbench.leaderboard.submissions`).

@@ -1,9 +1,9 @@
-"""Navigation complexity (seed §4.1): Shannon entropy of each free cell's 8-neighbourhood.
+"""Navigation complexity (the study's §4.1): Shannon entropy of each free cell's 8-neighbourhood.
 
 On an occupancy grid whose cells are robot-sized, a free cell with n occupied neighbours among
 its 8 (neighbours outside the map count as free, as Eq. 4.7 shows) has p = n / 8 and
 H = -p log2 p - (1 - p) log2 (1 - p), 0 when p is 0 or 1; obstacle cells score 0. ``total`` is
-the sum of H, ``normalized`` is total / (rows × cols). The seed's Table 4.1: 4.4859 (Matrix A)
+the sum of H, ``normalized`` is total / (rows × cols). The study's Table 4.1: 4.4859 (Matrix A)
 and 11.1065 (Matrix B); its Table 4.2 (the cabin map, 257.8176 / 0.4855): see the built-in
 layout ``paper_cabin_map``.
 
@@ -65,7 +65,7 @@ def map_rows(occupancy: np.ndarray) -> list[str]:
 
 
 def save_complexity_png(result: Complexity, path: str, title: str = "") -> None:
-    """The complexity map (like the seed's Fig. 5.5(c)): obstacles dark, free cells by H."""
+    """The complexity map (like the study's Fig. 5.5(c)): obstacles dark, free cells by H."""
     import matplotlib
 
     matplotlib.use("Agg")

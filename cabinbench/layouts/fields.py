@@ -13,7 +13,7 @@ from cabinbench.errors import LayoutError
 from cabinbench.values import is_real_number, is_whole_number
 
 CONTACT_CLEARANCE = 0.01  # metres: a reachable pose keeps this from walls, so covering needs no contact
-RESOLUTION = 0.05  # metres per coverage-raster pixel, the seed's map resolution
+RESOLUTION = 0.05  # metres per coverage-raster pixel, the study's map resolution
 MAX_POLYGON_CORNERS = 10_000
 
 

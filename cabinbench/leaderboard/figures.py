@@ -11,7 +11,7 @@
   the settings run with several K whose teams (K > 1) succeeded in every episode (a makespan cut
   short by the step limit measures the limit, not the team); a single robot that did not is a
   hollow point, and only one that did gives the ideal T(1)/K and each K's speed-up T(1)/T(K);
-- ``training__<baseline>.png``: the training curves (the seed's Fig. 5.8) of each shipped learned
+- ``training__<baseline>.png``: the training curves (the study's Fig. 5.8) of each shipped learned
   policy, from the ``metrics.csv`` that ``python -m cabinbench.train --ship`` keeps.
 """
 

@@ -14,7 +14,7 @@ the scatter plots. A per-layout score is the mean over the baseline's training s
 seed's mean over its distinct episodes.
 
 Last, the generalisation gap (:func:`gap_section`): every baseline that has records on the
-training suite ``cabin-v1-train`` (the learners: ``ppo_gail`` trained on the seed's two cells,
+training suite ``cabin-v1-train`` (the learners: ``ppo_gail`` trained on the study's two cells,
 ``ppo_gail_suite`` on the suite) scored on it, on ``cabin-v1-test`` and on ``cabin-v1-ood``, and
 the differences test − train and ood − train, over every training seed, with a generated finding.
 """
@@ -406,7 +406,7 @@ def gap_section(records: pd.DataFrame) -> list[str]:
         "from a random start (the suite protocol), the mean over training seeds and layouts ± half-width "
         "of the stratified bootstrap 95% interval (training seeds, layouts and episodes resampled); a gap is "
         "held-out minus train, its interval with the training seeds resampled jointly. ppo_gail trained on "
-        "the seed's two A320 cells, ppo_gail_suite on every layout of cabin-v1-train "
+        "the study's two A320 cells, ppo_gail_suite on every layout of cabin-v1-train "
         "(`scripts/train_suite_policies.sh`). Training seeds: per split when they differ (train/test/ood).",
         "",
         "| baseline | training seeds | train (layouts) | test (layouts) | ood (layouts) | test − train | "

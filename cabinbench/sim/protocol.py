@@ -1,4 +1,4 @@
-"""The seed's cell-by-cell cleaning protocol (§4.3.2, Fig. 4.15), and the open protocol.
+"""The study's cell-by-cell cleaning protocol (§4.3.2, Fig. 4.15), and the open protocol.
 
 In ``sequential`` the current cell is closed by *bounds* (solid virtual walls the lidar sees;
 touching one is a violation). When all goal markers of the cell are reached (a cell without goals:

@@ -1,5 +1,5 @@
 """Top-view pictures of a world: floor, seat blocks, covered area, bounds, markers, robots and
-their paths (the seed's Fig. 5.11 in one frame). Used by the envs' ``rgb_array``/``human``
+their paths (the study's Fig. 5.11 in one frame). Used by the envs' ``rgb_array``/``human``
 modes and by ``run --render``.
 """
 

@@ -1,7 +1,7 @@
 """Reward presets, selected by name from :data:`REWARD_PRESETS`. Each maps one robot's step events
 to a float.
 
-``paper`` reproduces the seed's Tables 4.4 and 4.5: new goal marker +0.5, obstacle (or robot)
+``paper`` reproduces the study's Tables 4.4 and 4.5: new goal marker +0.5, obstacle (or robot)
 hit -0.3, bound -10, step -0.01, exit landmark reached +2, and on the step that clears a cell
 the reward is *set* to 3 (ML-Agents' ``SetReward``: it replaces that step's other terms).
 

@@ -37,7 +37,7 @@ def build_cabin(check: FieldChecker, block, robot: RobotSpec) -> KindGeometry:
     left by the aisles in proportion to their seats, unless ``block_widths`` fixes them.
     ``obstacles`` adds rectangles ``[xmin, ymin, xmax, ymax]`` inside the cabin: galleys,
     lavatories, bulkheads, bags, a trolley. Cells group ``rows_per_cell`` rows; their goals are
-    the wall-side dead ends of each legroom gap in the cell (the seed's white cubes) and the
+    the wall-side dead ends of each legroom gap in the cell (the study's white cubes) and the
     middle of gaps between two aisles.
     """
     block = check.mapping(block, "cabin")
