@@ -102,6 +102,9 @@ class TrainConfig:
     demo_action_noise: float = option(0.0, metavar="STD")
     """Std of the Gaussian noise added to the planner's executed actions while its own are recorded; 0:
     noisy demonstrations made the policies worse (docs/experiments.md)."""
+    demo_random_start: bool = option(False)
+    """Start each demonstration episode at a random pose of the start cell (drawn by the episode's seed)
+    instead of the layout's start, where the plan begins."""
     demo_max_steps: int | None = None
     """Step limit of the demonstration episodes (None: the training ``max_steps``)."""
     demo_layouts: int = option(8, metavar="N")
@@ -263,6 +266,8 @@ class TrainConfig:
         if not self.suite:  # a run on layouts: its config.json reads as it did before suites existed
             for name in SUITE_FIELDS:
                 del values[name]
+        if not self.demo_random_start:  # its config.json reads as it did before the field existed
+            del values["demo_random_start"]
         return values
 
     @classmethod

@@ -265,7 +265,7 @@ def expert_demonstrations(config: TrainConfig, run_dir: Path) -> list[str]:
             env_kwargs = {
                 **config.env_kwargs,
                 "max_steps": config.demo_max_steps or config.max_steps,
-                "random_start": False,
+                "random_start": config.demo_random_start,
             }
             record_demonstrations(
                 layout,
