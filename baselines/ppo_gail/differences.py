@@ -245,6 +245,15 @@ ROWS: list[Row | CodeRow] = [
     ),
     Row("GAIL learning rate", "gail_learning_rate"),
     CodeRow(
+        "value estimates",
+        "not stated",
+        "one critic of the summed reward",
+        "one critic of the summed reward",
+        why_ppo_gail="rsl-rl's storage holds one reward stream",
+        why_study="not stated; ML-Agents' PPO gives each reward signal a value head of its own, each "
+        "discounted by its gamma (all 0.99 in Table 5.3); rsl-rl's storage holds one reward stream",
+    ),
+    CodeRow(
         "initial weights of every network",
         "not stated",
         "torch's default (Kaiming uniform)",
