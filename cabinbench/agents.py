@@ -39,7 +39,9 @@ ENTRY_POINT_GROUP = "cabinbench.baselines"
 
 @dataclass(frozen=True)
 class EpisodeContext:
-    """What a baseline may know before an episode: the layout, the protocol and its seat in the team."""
+    """What a baseline may know before an episode: the layout, the protocol, its seat in the team and
+    where the team's robots stand (``team_start``: (K, 3) poses x, y, heading in seat order; None
+    where the caller did not say)."""
 
     layout: Layout
     protocol: str
@@ -48,6 +50,7 @@ class EpisodeContext:
     n_agents: int = 1
     env_config: dict = field(default_factory=dict)  # lidar and reward settings the env was made with
     observation_layout: dict = field(default_factory=dict)  # part name -> slice (cabinbench.sim.observation)
+    team_start: np.ndarray | None = None
 
 
 class Baseline:

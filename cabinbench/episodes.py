@@ -91,6 +91,7 @@ def run_episode(
     env = make_env(layout, protocol, n_agents, env_kwargs)
     observations, infos = env.reset(seed=seed)
     agents = list(env.agents)
+    starts = [[float(v) for v in infos[agent]["pose"]] for agent in agents]
     for index, (agent, baseline) in enumerate(zip(agents, baselines)):
         context = EpisodeContext(
             layout,
@@ -100,11 +101,11 @@ def run_episode(
             n_agents=n_agents,
             env_config=env_kwargs,
             observation_layout=env.observation_layout,
+            team_start=np.array(starts),
         )
         baseline.reset(context, observations[agent], infos[agent])
 
     world = env.world
-    starts = [[float(v) for v in infos[agent]["pose"]] for agent in agents]
     positions = [[infos[agent]["pose"][:2] for agent in agents]]
     coverage = [infos[agents[0]]["coverage"]]
     frames = [draw_frame(world)] if frame_every else None

@@ -226,7 +226,7 @@ def test_discriminator_separates_expert_from_random_pairs(demonstrations, tmp_pa
     batches = list(torch.arange(agent_states.shape[0]).chunk(4)) * 3
     for _ in range(20):
         expert = [torch.randint(num_expert, (batch.numel(),), generator=generator) for batch in batches]
-        alg.update_discriminator(agent_states, agent_actions, batches, expert)
+        alg.update_discriminator(agent_states, agent_actions, batches, expert, [None] * len(batches))
 
     held_out = tmp_path / "held_out.npz"
     record_demonstrations(held_out, num_envs=32, num_steps=50, seed=456)
@@ -256,6 +256,45 @@ def test_gail_reward_is_centred_on_the_rollout_so_ending_early_pays_nothing(demo
     assert alg.gail_rewards.abs().mean() > 1e-3  # the raw logit rewards are not zero...
     # ...but the rewards the returns were computed from are those minus their rollout mean.
     torch.testing.assert_close(alg.storage.rewards.squeeze(-1), alg.gail_rewards - alg.gail_rewards.mean())
+
+
+def test_mlagents_gail_reward_is_paid_uncentred_once_the_discriminator_has_trained(demonstrations):
+    # As in the test above, the returns see the GAIL reward alone.
+    env = PointMassEnv(seed=0, max_episode_length=10_000, extrinsic_reward=False)
+    runner = make_runner(
+        "ppo_gail_only", demonstrations, env=env, gail_form="mlagents", gail_use_actions=False
+    )
+    runner.learn(num_learning_iterations=1)
+    assert (runner.alg.gail_rewards == 0).all()  # ML-Agents pays nothing before the first update
+    runner.learn(num_learning_iterations=1)
+
+    alg = runner.alg
+    assert (alg.gail_rewards > 0).all()  # -log(1 - D) is a bonus for every step
+    torch.testing.assert_close(alg.storage.rewards.squeeze(-1), alg.gail_rewards)
+
+
+def test_mlagents_curiosity_is_clipped_paid_after_its_first_update_and_trained_ten_times_harder(
+    demonstrations,
+):
+    runner = make_runner("ppo_icm", demonstrations, curiosity_form="mlagents", num_steps_per_env=60)
+    runner.learn(num_learning_iterations=1)
+    assert (runner.alg.curiosity_rewards == 0).all()
+    runner.learn(num_learning_iterations=1)
+    alg = runner.alg
+    done = alg.storage.dones.squeeze(-1).bool()
+    assert (alg.curiosity_rewards[done] == 0).all()
+    assert (alg.curiosity_rewards[~done] > 0).all() and (alg.curiosity_rewards <= 1).all()
+
+    # One plain gradient step of the update is the gradient of 10 (0.2 L_F + 0.8 L_I).
+    states, actions, next_states = fixed_transitions(num_envs=16, num_steps=2)
+    parameters = list(alg.curiosity.parameters())
+    forward_loss, inverse_loss = alg.curiosity.losses(states, actions, next_states)
+    expected = torch.autograd.grad(10.0 * (0.2 * forward_loss + 0.8 * inverse_loss), parameters)
+    before = [parameter.detach().clone() for parameter in parameters]
+    alg.curiosity_optimizer = torch.optim.SGD(parameters, lr=1.0)
+    alg.update_curiosity(states, actions, next_states, [torch.arange(states.shape[0])])
+    for old, new, gradient in zip(before, parameters, expected, strict=True):
+        torch.testing.assert_close(old - new.detach(), gradient)
 
 
 def test_shaping_columns_are_all_that_the_icm_and_the_discriminator_see(demonstrations):

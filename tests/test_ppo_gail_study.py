@@ -19,6 +19,7 @@ from cabinbench.baselines.boustrophedon import Boustrophedon
 from cabinbench.baselines.ppo_gail import cli, differences, training
 from cabinbench.baselines.ppo_gail.policy import read_policy_file, tracking_or_cleaning
 from cabinbench.baselines.ppo_gail.study import STAGES, study_config
+from cabinbench.baselines.ppo_gail.training.loop import expert_demonstrations
 
 from cabinbench.agents import EpisodeContext, load_baseline
 from cabinbench.envs.coverage_env import CoverageEnv
@@ -52,6 +53,11 @@ def test_the_study_config_is_tables_5_2_and_5_3_with_the_papers_rewards_and_lida
             0.01,
         )
         assert (algorithm["learning_rate"], algorithm["curiosity_encoding_size"]) == (3e-4, 256)
+        # the reward signals as ML-Agents, the study's toolkit, computes them, with its defaults
+        assert (algorithm["curiosity_form"], algorithm["gail_form"]) == ("mlagents", "mlagents")
+        assert not algorithm["gail_use_actions"] and algorithm["gail_gradient_penalty"] == 10
+        assert algorithm["gail_learning_rate"] == algorithm["curiosity_learning_rate"] == 3e-4
+        assert config.demo_random_start and config.demo_action_noise > 0  # varied demonstrations
 
 
 def test_the_tracking_episode_ends_at_the_exit_landmark():
@@ -72,6 +78,35 @@ def tiny(stage: str, **overrides) -> training.TrainConfig:
     """The study's configuration on tiny rollouts: 4 envs x 16 steps, 4 mini-batches, 3 iterations."""
     settings = dict(num_envs=4, num_steps_per_env=16, num_mini_batches=4, iterations=3, save_interval=1)
     return study_config(stage, **{**settings, "demo_episodes": 1, "max_steps": 60, **overrides})
+
+
+def test_the_study_demonstrations_are_varied_episodes_not_one_repeated(tmp_path):
+    """Each episode from another start pose, the path perturbed: no two episodes alike."""
+    config = tiny("cleaning", demo_episodes=3, max_steps=200)
+    (path,) = expert_demonstrations(config, tmp_path)
+    with np.load(path) as data:
+        observations, episode = data["observations"], data["episode"]
+    episodes = [observations[episode == index] for index in range(3)]
+    firsts = [tuple(steps[0]) for steps in episodes]
+    assert len(set(firsts)) == 3  # three start poses
+    assert not np.array_equal(episodes[0][:50], episodes[1][:50])
+
+
+def test_the_study_forms_train_the_same_on_one_core_or_two(tmp_path):
+    """With two cores the ICM and the discriminator train in threads; ML-Agents' gradient penalty draws its
+    interpolation before the update, so the run is the one-core run's."""
+    for workers in (1, 2):
+        config = tiny("cleaning", iterations=2, workers=workers, validation_episodes=0)
+        training.train(config, tmp_path / f"cores{workers}", progress=False)
+    rows = [
+        [
+            {key: value for key, value in row.items() if not key.endswith("time")}
+            for row in read_metrics(tmp_path / f"cores{workers}" / "metrics.csv")
+        ]
+        for workers in (1, 2)
+    ]
+    assert rows[0] == rows[1] and len(rows[0]) == 2
+    assert float(rows[0][1]["gail_reward"]) > 0  # ML-Agents' -log(1 - D), once D has trained
 
 
 def test_study_training_checkpoints_exports_and_runs_the_pair_cell_by_cell(tmp_path, monkeypatch):
@@ -147,12 +182,29 @@ def test_the_committed_differences_table_is_the_generated_one(tmp_path):
     )
 
 
-def test_the_shipped_pair_is_the_study_config_and_records_the_steps_it_reached():
+ISSUE_43_SETTINGS = (
+    "curiosity_form",
+    "curiosity_learning_rate",
+    "gail_form",
+    "gail_use_actions",
+    "gail_gradient_penalty",
+    "gail_learning_rate",
+)
+"""The algorithm settings the study's configuration took from ML-Agents after the shipped pair was trained."""
+
+
+def test_the_shipped_pair_is_the_study_config_of_our_forms_and_records_the_steps_it_reached():
+    """The shipped pair predates ML-Agents' reward forms and the varied demonstrations: it is the study's
+    configuration with our forms (the algorithm's defaults) and every demonstration from the layout's start,
+    until it is retrained with the current one."""
     checkpoints = REPOSITORY / "baselines" / "ppo_gail" / "checkpoints"
     for stage in STAGES:
         name = f"ppo_gail_study_{stage}"
         config = training.TrainConfig.from_dict(json.loads((checkpoints / f"{name}.config.json").read_text()))
-        assert config.to_dict() == study_config(stage).to_dict()
+        algorithm = study_config(stage).algorithm
+        ours = {key: value for key, value in algorithm.items() if key not in ISSUE_43_SETTINGS}
+        former = study_config(stage, algorithm=ours, demo_random_start=False, demo_action_noise=0.0)
+        assert config.to_dict() == former.to_dict()
         reached = json.loads((checkpoints / f"{name}.training.json").read_text())
         assert 0 < reached["iterations"] <= reached["iterations_planned"] == config.iterations
         assert reached["timesteps"] == reached["iterations"] * 2048

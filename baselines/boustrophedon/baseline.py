@@ -56,8 +56,14 @@ class Boustrophedon(Baseline):
 
     def plan(self, context: EpisodeContext, info: dict) -> list[Leg]:
         """This robot's legs in driving order (a subclass may take them from elsewhere, e.g. a file)."""
-        return plan_layout(  # from where the robot is: a suite episode starts anywhere in the start cell
-            context.layout, context.protocol, context.agent, context.n_agents, info["pose"][:2]
+        # from where the robots are: a suite episode starts them anywhere in the start cell
+        return plan_layout(
+            context.layout,
+            context.protocol,
+            context.agent,
+            context.n_agents,
+            info["pose"][:2],
+            context.team_start,
         )
 
     def act(self, observation: np.ndarray, info: dict) -> np.ndarray:

@@ -4,7 +4,10 @@ Input: a ``Layout``, the protocol and the team size; output: every robot's legs
 (``team_plans``). Ranks are fixed for the episode (``shares.team_split``): rank ``r`` sets off
 ``r × DEPARTURE_GAP`` seconds after the start, so robots enter the aisle in rank order, the
 leader heading farthest; every transit keeps to the band and the robot's own share where it can,
-so nobody crosses another robot's share.
+so nobody crosses another robot's share. Each robot sets off from where it stands (a suite
+episode scatters the team over the start cell) straight for the first entry of its share; that
+first sweep is the one its rank makes from the team's start poses, so the robots stage and drive
+on in the convoy the gates were laid out for, wherever they start.
 
 - **Sequential.** The team works through the cells together. Every robot sweeps its share, the
   pieces with goal markers last, up to the first touch of its last goal marker, and waits there,
@@ -52,6 +55,7 @@ from cabinbench.baselines.boustrophedon.shares import (
     TeamStage,
     cached_for_team,
     team_split,
+    team_starts,
 )
 from cabinbench.baselines.coverage_planning import driving_time
 from scipy import ndimage
@@ -74,25 +78,35 @@ STAGING_MARGIN = 0.5  # seconds added to the estimated back-out time before the 
 _PLAN_CACHE: OrderedDict = OrderedDict()
 
 
-def plan_team(layout: Layout, protocol: str, agent: int, n_agents: int) -> list[Leg]:
-    """Robot ``agent``'s legs in a team of ``n_agents`` (see the module docstring)."""
-    return list(team_plans(layout, protocol, n_agents)[agent])
+def plan_team(layout: Layout, protocol: str, agent: int, n_agents: int, starts=None) -> list[Leg]:
+    """Robot ``agent``'s legs in a team of ``n_agents`` standing at ``starts`` (see
+    :func:`team_plans`)."""
+    return list(team_plans(layout, protocol, n_agents, starts)[agent])
 
 
-def team_plans(layout: Layout, protocol: str, n_agents: int) -> list[list[Leg]]:
-    """Every robot's legs (computed once per layout and team: each robot's baseline instance
-    takes its own). The departure gates of a cell are set from all robots' plans: once the cell
-    clears, every robot backs out to its staging point (clear of the aisle), and rank r drives
-    on ``T + r × DEPARTURE_GAP`` seconds after the clear, T being the longest estimated back-out."""
+def team_plans(layout: Layout, protocol: str, n_agents: int, starts=None) -> list[list[Leg]]:
+    """Every robot's legs, each from where it stands: ``starts`` (K, 2 or 3), by default the team's
+    start poses (computed once per layout and team: each robot's baseline instance takes its own).
+    The departure gates of a cell are set from all robots' plans: once the cell clears, every robot
+    backs out to its staging point (clear of the aisle), and rank r drives on
+    ``T + r × DEPARTURE_GAP`` seconds after the clear, T being the longest estimated back-out."""
+    starts = team_starts(layout, n_agents, starts)
     return cached_for_team(
-        _PLAN_CACHE, layout, protocol, n_agents, lambda: _gated_plans(layout, protocol, n_agents)
+        _PLAN_CACHE, layout, (protocol, starts.tobytes()), lambda: _gated_plans(layout, protocol, starts)
     )
 
 
-def _gated_plans(layout: Layout, protocol: str, n_agents: int) -> list[list[Leg]]:
+def _gated_plans(layout: Layout, protocol: str, starts: np.ndarray) -> list[list[Leg]]:
     """Every robot's legs, the delays of the departure gates set from all of them."""
-    split = team_split(layout, protocol, n_agents)
-    plans = [_robot_legs(layout, split, agent, n_agents) for agent in range(n_agents)]
+    split = team_split(layout, protocol, len(starts), starts)
+    # where each rank's robot stands in the team's start poses: every rank plans its first sweep
+    # from there, whoever holds it and wherever that robot stands (see _robot_legs)
+    homes = start_poses(layout, len(starts))[:, :2]
+    home_of_rank = dict(zip(team_split(layout, protocol, len(starts)).ranks.tolist(), homes))
+    plans = [
+        _robot_legs(layout, split, agent, starts[agent], home_of_rank[int(split.ranks[agent])])
+        for agent in range(len(starts))
+    ]
     robot = layout.robot
     back_out: dict[int, float] = {}
     for legs in plans:
@@ -110,17 +124,23 @@ def _gated_plans(layout: Layout, protocol: str, n_agents: int) -> list[list[Leg]
     return plans
 
 
-def _robot_legs(layout: Layout, split: TeamSplit, agent: int, n_agents: int) -> list[Leg]:
-    """Robot ``agent``'s legs through every stage of ``split`` (gates still without their delay)."""
+def _robot_legs(
+    layout: Layout, split: TeamSplit, agent: int, start: np.ndarray, home: np.ndarray
+) -> list[Leg]:
+    """Robot ``agent``'s legs through every stage of ``split``, from ``start`` (x, y), where it
+    stands (gates still without their delay). Its first sweep is planned from ``home``, where the
+    robot of its rank stands in the team's start poses, and entered from ``start``: every rank
+    sweeps and stages as the convoy was laid out for, wherever its robot starts."""
     rank = int(split.ranks[agent])
-    position = start_poses(layout, n_agents)[agent, :2]
+    position = start
     drivable = reachable(layout)
     if split.stages[0].cell < 0:  # open: one stage
         stage = split.stages[0]
         share = stage.sweeps[rank]
         if not share.any():
             return []
-        waypoints = _sweep_path(layout, share, position, None, drivable & ~_others(stage, rank), drivable)
+        lane = drivable & ~_others(stage, rank)
+        waypoints = _sweep_path(layout, share, position, None, lane, drivable, plan_from=home)
         return [Leg(waypoints, -1, "sweep", None, rank * DEPARTURE_GAP)]
 
     legs = _LegList(wait=(None, rank * DEPARTURE_GAP, False))
@@ -136,10 +156,13 @@ def _robot_legs(layout: Layout, split: TeamSplit, agent: int, n_agents: int) -> 
             exit_point = nearest_point(layout.passages[cell - 1].exits, position)
             legs.add(transit(layout, lane, position, exit_point, corridor), cell - 1, "exit")
             position = exit_point
+        plan_from = home if stage is split.stages[0] else None
         if cell == len(layout.cells) - 1 and len(goals):
-            position = _last_cell_legs(legs, layout, cell, share, goals, position, lane, corridor, drivable)
+            position = _last_cell_legs(
+                legs, layout, cell, share, goals, position, (lane, corridor, drivable), plan_from
+            )
         else:
-            sweep = _sweep_path(layout, share, position, goals, lane, corridor)
+            sweep = _sweep_path(layout, share, position, goals, lane, corridor, plan_from)
             if len(goals):
                 position = _sweep_and_stage_legs(legs, layout, stage, sweep, goals, lane, corridor)
             else:
@@ -200,16 +223,19 @@ def _last_cell_legs(
     share: np.ndarray,
     goals: np.ndarray,
     position: np.ndarray,
-    lane: np.ndarray,
-    corridor: np.ndarray,
-    drivable: np.ndarray,
+    floors: tuple[np.ndarray, np.ndarray, np.ndarray],
+    plan_from: np.ndarray | None,
 ) -> np.ndarray:
     """The legs of the last cell, where reaching the team's last goal ends the episode: the share
     swept with this robot's final goal held back, the final goal, then the spot held back. Returns
-    where the robot ends. ``lane``, ``corridor``: as :func:`_stage_ways` gives them."""
-    sweep = _sweep_path(layout, share, position, goals, lane, corridor)
+    where the robot ends. ``floors``: (lane, corridor) as :func:`_stage_ways` gives them, and the
+    drivable floor; ``plan_from``: as :func:`_sweep_path` takes it."""
+    lane, corridor, drivable = floors
+    sweep = _sweep_path(layout, share, position, goals, lane, corridor, plan_from)
     final_goal, keep_off = held_back_goal(layout, sweep, goals)
-    sweep = _sweep_path(layout, share & ~keep_off, position, goals, lane & ~keep_off, corridor & ~keep_off)
+    sweep = _sweep_path(
+        layout, share & ~keep_off, position, goals, lane & ~keep_off, corridor & ~keep_off, plan_from
+    )
     legs.add(sweep, cell, "sweep")
     allowed = share | (keep_off & drivable) | corridor
     # the pixel nearest the goal that it may drive to: goals may sit where the disc cannot
@@ -309,14 +335,18 @@ def _sweep_path(
     goals: np.ndarray | None,
     corridor: np.ndarray,
     fallback: np.ndarray | None = None,
+    plan_from: np.ndarray | None = None,
 ) -> np.ndarray:
     """One polyline (metres) from ``start`` that sweeps every piece of ``share``: the pieces
-    (4-connected) nearest first, joined by A* transits through ``corridor | share``."""
+    (4-connected) nearest first, joined by A* transits through ``corridor | share`` (else
+    ``fallback``). With ``plan_from``, the order and the entries of the pieces are those of a
+    sweep from there, and the robot drives from ``start`` straight on to the first entry."""
     labels, count = ndimage.label(share)
     sizes = ndimage.sum_labels(np.ones_like(labels), labels, index=np.arange(1, count + 1))
     remaining = [k + 1 for k in range(count) if sizes[k] >= MIN_SWEEP_COMPONENT_PX]
     path = [np.asarray(start, dtype=float)[None, :]]
-    position = np.asarray(start, dtype=float)
+    at = path[0][0]  # where the robot is; ``position``, where the sweep is planned from
+    position = at if plan_from is None else np.asarray(plan_from, dtype=float)
     ways = corridor | share
     fallback = ways if fallback is None else (fallback | share)
     goal_pieces = set()
@@ -338,10 +368,10 @@ def _sweep_path(
         piece = labels == label
         if not piece[layout.to_pixel(*position)]:
             flat = int(np.argmin(np.where(piece, distance, np.inf)))
-            entry = pixel_centre(layout, divmod(flat, piece.shape[1]))
-            path.append(transit(layout, ways, position, entry, fallback)[1:])
-            position = entry
+            position = pixel_centre(layout, divmod(flat, piece.shape[1]))
+        if not np.array_equal(at, position):  # the robot is elsewhere: it drives to the entry
+            path.append(transit(layout, ways, at, position, fallback)[1:])
         plan = plan_region(layout, piece, position, goals, quickest=True)
         path.append(plan.waypoints[1:])
-        position = plan.waypoints[-1]
+        at = position = plan.waypoints[-1]
     return drop_repeated_points(np.vstack(path))

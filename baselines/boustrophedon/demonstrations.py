@@ -50,6 +50,7 @@ def record_demonstrations(
         observation, info = env.reset(seed=seed + episode)
         noise = np.random.default_rng([seed, episode])
         planners = {agent: Boustrophedon() for agent in env.agents}
+        team_start = np.array([info[agent]["pose"] for agent in env.agents])
         for index, (agent, planner) in enumerate(planners.items()):
             context = EpisodeContext(
                 env.unwrapped.layout,
@@ -59,6 +60,7 @@ def record_demonstrations(
                 n_agents=n_agents,
                 env_config=env_kwargs,
                 observation_layout=env.unwrapped.observation_layout,
+                team_start=team_start,
             )
             planner.reset(context, observation[agent], info[agent])
         while env.agents:

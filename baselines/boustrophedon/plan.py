@@ -21,13 +21,19 @@ from cabinbench.sim.world import start_poses
 
 
 def plan_layout(
-    layout: Layout, protocol: str = "sequential", agent: int = 0, n_agents: int = 1, start=None
+    layout: Layout,
+    protocol: str = "sequential",
+    agent: int = 0,
+    n_agents: int = 1,
+    start=None,
+    team_start=None,
 ) -> list[Leg]:
     """The whole plan for robot ``agent`` of a team of ``n_agents``, as legs in driving order. A
     lone robot plans from ``start`` (x, y), the pose it finds (default: the layout's start); a
-    team from the team's start poses (:func:`~cabinbench.sim.world.start_poses`)."""
+    team from ``team_start`` (K, 2 or 3), where its robots stand (default: the team's start
+    poses, :func:`~cabinbench.sim.world.start_poses`)."""
     if n_agents > 1:
-        return plan_team(layout, protocol, agent, n_agents)
+        return plan_team(layout, protocol, agent, n_agents, team_start)
     start = start_poses(layout, 1)[0, :2] if start is None else np.asarray(start, dtype=float)[:2]
     drivable = layout.centre_free  # already keeps the disc 1 cm off every wall
     if protocol == "open":

@@ -21,8 +21,13 @@ head-on, and they move in a fixed *convoy*:
   where one robot can sweep it with nobody else about: behind everyone for the last robot to
   set off in the first stage, beyond everyone for the leader in a dead end.
 - **Convoy order.** Ranks are fixed for the episode: in the first stage they are assigned from
-  the start poses (:func:`cabinbench.sim.world.start_poses`) by minimising the summed squared travel,
-  which gives the farthest share to the robot nearest the way out.
+  where the robots stand (by default the team's start poses,
+  :func:`cabinbench.sim.world.start_poses`) by minimising the summed squared travel, which gives
+  the farthest share to the robot nearest the way out and, robots scattered along the aisle (a
+  random start), keeps their order along it: nobody has to pass anybody to reach its share.
+
+The stages depend on the layout alone (the way is laid from the layout's start, whoever stands
+there), so robots starting anywhere share out the same work; only the ranks follow the robots.
 """
 
 from __future__ import annotations
@@ -82,17 +87,24 @@ class TeamSplit:
     ranks: np.ndarray  # ranks[agent]: the robot's place in the convoy (0 leads, takes the farthest)
 
 
-TEAM_CACHE_SIZE = 8  # teams (layout, protocol, size) whose split and plans are kept
-_SPLIT_CACHE: OrderedDict = OrderedDict()
+TEAM_CACHE_SIZE = 8  # teams (layout, protocol, start poses) whose stages and plans are kept
+_STAGES_CACHE: OrderedDict = OrderedDict()
 Value = TypeVar("Value")
 
 
-def cached_for_team(
-    cache: OrderedDict, layout: Layout, protocol: str, n_agents: int, compute: Callable[[], Value]
-) -> Value:
-    """``compute()`` once per layout, protocol and team size (every robot of a team asks for the
-    same); the last ``TEAM_CACHE_SIZE`` teams are kept in ``cache``."""
-    key = (layout.name, layout.content_hash, protocol, n_agents)
+def team_starts(layout: Layout, n_agents: int, starts=None) -> np.ndarray:
+    """(K, 2) where the robots of the team stand: ``starts`` (K, 2 or 3), by default the team's
+    start poses (:func:`~cabinbench.sim.world.start_poses`)."""
+    if starts is None:
+        return start_poses(layout, n_agents)[:, :2]
+    return np.asarray(starts, dtype=float)[:, :2]
+
+
+def cached_for_team(cache: OrderedDict, layout: Layout, team: tuple, compute: Callable[[], Value]) -> Value:
+    """``compute()`` once per layout and ``team`` (what else the value depends on: the protocol,
+    the team size or where its robots stand; every robot of a team asks for the same); the last
+    ``TEAM_CACHE_SIZE`` entries are kept in ``cache``."""
+    key = (layout.name, layout.content_hash, *team)
     if key in cache:
         cache.move_to_end(key)
         return cache[key]
@@ -102,25 +114,29 @@ def cached_for_team(
     return value
 
 
-def team_split(layout: Layout, protocol: str, n_agents: int) -> TeamSplit:
-    """The team's division of work (every robot of a team computes the same; cached)."""
-    return cached_for_team(
-        _SPLIT_CACHE, layout, protocol, n_agents, lambda: _split(layout, protocol, n_agents)
+def team_split(layout: Layout, protocol: str, n_agents: int, starts=None) -> TeamSplit:
+    """The team's division of work for robots standing at ``starts`` (K, 2 or 3; default the team's
+    start poses). Every robot of a team computes the same; the stages are cached per team size."""
+    starts = team_starts(layout, n_agents, starts)
+    stages, corridor = cached_for_team(
+        _STAGES_CACHE, layout, (protocol, n_agents), lambda: _stages(layout, protocol, n_agents)
     )
+    return TeamSplit(stages, _assign_ranks(layout, corridor, starts, stages[0].shares))
 
 
-def _split(layout: Layout, protocol: str, n_agents: int) -> TeamSplit:
-    starts = start_poses(layout, n_agents)[:, :2]
+def _stages(layout: Layout, protocol: str, n_agents: int) -> tuple[list[TeamStage], np.ndarray]:
+    """(the stages, the floor the robots reach their first shares through)."""
+    start = np.asarray(layout.start[:2], dtype=float)
     drivable = reachable(layout)
     if protocol == "open":
-        aisles = layout.passages[0].exits[:, 1] if layout.passages else np.array([starts[0][1]])
-        legs = [(starts[0], _far_end(layout, drivable, starts[0], y)) for y in aisles]
-        legs = sorted(legs, key=lambda leg: abs(leg[1][1] - starts[0][1]))[:1]
-        stages = [_stage(layout, -1, drivable, layout.goals, starts[0], n_agents, legs, True, True)]
+        aisles = layout.passages[0].exits[:, 1] if layout.passages else np.array([start[1]])
+        legs = [(start, _far_end(layout, drivable, start, y)) for y in aisles]
+        legs = sorted(legs, key=lambda leg: abs(leg[1][1] - start[1]))[:1]
+        stages = [_stage(layout, -1, drivable, layout.goals, start, n_agents, legs, True, True)]
         corridor = drivable
     else:
         first = layout.cleared_cells
-        stages, entry = [], starts[0]
+        stages, entry = [], start
         for cell in range(first, len(layout.cells)):
             sources = layout.passages[cell - 1].exits if cell > 0 else entry[None]
             entry = nearest_point(sources, entry)
@@ -152,7 +168,7 @@ def _split(layout: Layout, protocol: str, n_agents: int) -> TeamSplit:
             drivable & (layout.cell_raster >= min(start_cell, first)) & (layout.cell_raster <= max(first, 0))
         )
         corridor &= ~near_bounds(layout, first) if first < len(layout.passages) else True
-    return TeamSplit(stages, _assign_ranks(layout, corridor, starts, stages[0].shares))
+    return stages, corridor
 
 
 def _stage(

@@ -28,7 +28,12 @@ from concurrent.futures import ThreadPoolExecutor
 
 import torch
 from cabinbench.baselines.ppo_gail.demonstrations import load_demonstrations
-from cabinbench.baselines.ppo_gail.reward_models import GailDiscriminator, IntrinsicCuriosityModule
+from cabinbench.baselines.ppo_gail.mlagents import MlAgentsCuriosity, MlAgentsDiscriminator
+from cabinbench.baselines.ppo_gail.reward_models import (
+    CuriosityModel,
+    GailDiscriminator,
+    IntrinsicCuriosityModule,
+)
 from rsl_rl.algorithms import PPO
 from rsl_rl.models import MLPModel
 from rsl_rl.storage import RolloutStorage
@@ -46,6 +51,10 @@ ABLATIONS = {
 }
 """The study's ablations: which reward signals are added to PPO."""
 REWARD_SIGNALS = tuple(ABLATIONS["ppo_gail"])  # ("use_curiosity", "use_gail")
+
+FORMS = ("ours", "mlagents")
+"""How the curiosity and the GAIL reward are computed: ours (``reward_models.py``) or Unity ML-Agents'
+(``mlagents.py``), which the study ran."""
 
 ACTION_LIMIT = 1.0
 """Actions are in [-1, 1] (the demonstration schema; the environment clips). PPO samples from an unbounded
@@ -83,7 +92,9 @@ class PPOCuriosityGail(PPO):
     where the mean is over the rollout (``compute_returns``): the logit is negative wherever the discriminator
     tells the agent from the expert, nearly everywhere while it learns, so uncentred it pays the agent to end
     its episodes early. Centred, it ranks the agent's actions without paying it to live or to die (measured:
-    docs/experiments.md, "GAIL reward centring").
+    docs/experiments.md, "GAIL reward centring"). That is the "ours" form of both terms; with
+    ``curiosity_form="mlagents"`` / ``gail_form="mlagents"`` they are ML-Agents' (``mlagents.py``):
+    ``clip(curiosity_strength * surprise_t, 0, 1) + gail_strength * -log(1 - D(s_t) + 1e-7)``.
 
     Either term is switched off by ``use_curiosity`` / ``use_gail``. Both modules see the concatenated
     observation groups of the actor (the policy observation, which is also what the demonstrations record), or
@@ -94,16 +105,22 @@ class PPOCuriosityGail(PPO):
         actor, critic, storage: As for rsl-rl's ``PPO`` (built by ``PPO.construct_algorithm``).
         use_curiosity: Add the ICM curiosity reward.
         use_gail: Add the GAIL reward; requires ``expert_demonstrations``.
-        curiosity_strength: eta, the scale of the (std-normalised) curiosity reward.
-        curiosity_forward_weight: beta, the ICM loss is (1 - beta) L_I + beta L_F.
+        curiosity_form: "ours" (``IntrinsicCuriosityModule``) or "mlagents" (``MlAgentsCuriosity``).
+        curiosity_strength: eta, the scale of the curiosity reward (ours: of the std-normalised one).
+        curiosity_forward_weight: beta, the ICM loss is (1 - beta) L_I + beta L_F (times the module's
+            ``loss_multiplier``).
         curiosity_encoding_size: Size of the ICM feature vector phi(s).
-        curiosity_hidden_dims: Hidden layers of the ICM encoder, forward and inverse models.
+        curiosity_hidden_dims: Hidden layers of our ICM's encoder, forward and inverse models (ML-Agents'
+            are fixed, see ``mlagents.py``).
         curiosity_learning_rate: Adam learning rate of the ICM.
+        gail_form: "ours" (``GailDiscriminator``) or "mlagents" (``MlAgentsDiscriminator``).
         gail_strength: Scale of the GAIL reward.
         gail_hidden_dims: Hidden layers of the discriminator.
-        gail_gradient_penalty: Weight of the R1 gradient penalty on expert samples; lower than the 5-10
-            of least-squares discriminators (AMP), whose outputs are smaller than BCE logits
-            (docs/experiments.md).
+        gail_use_actions: The discriminator sees the action beside the observation; ours always does,
+            ML-Agents' by default not (the study's ``ppo_gail_study`` sets False).
+        gail_gradient_penalty: Weight of the gradient penalty: ours the R1 penalty on expert samples, 1,
+            lower than the 5-10 of least-squares discriminators (AMP), whose outputs are smaller than BCE
+            logits (docs/experiments.md); ML-Agents' its WGAN-GP penalty, 10 (``GAIL_GRADIENT_PENALTY``).
         gail_learning_rate: Adam learning rate of the discriminator.
         expert_demonstrations: ``.npz`` files, see ``demonstrations.load_demonstrations``.
         expected_observation_config: The environment's observation layout; demonstrations recorded with
@@ -129,13 +146,16 @@ class PPOCuriosityGail(PPO):
         *,
         use_curiosity: bool = True,
         use_gail: bool = True,
+        curiosity_form: str = "ours",
         curiosity_strength: float = 0.02,
         curiosity_forward_weight: float = 0.2,
         curiosity_encoding_size: int = 256,
         curiosity_hidden_dims: Sequence[int] = (256,),
         curiosity_learning_rate: float = 3.0e-4,
+        gail_form: str = "ours",
         gail_strength: float = 0.3,
         gail_hidden_dims: Sequence[int] = (128, 128),
+        gail_use_actions: bool = True,
         gail_gradient_penalty: float = 1.0,
         gail_learning_rate: float = 3.0e-4,
         expert_demonstrations: Sequence[str | os.PathLike] = (),
@@ -152,6 +172,11 @@ class PPOCuriosityGail(PPO):
                 "PPOCuriosityGail does not synchronise the ICM and discriminator across GPUs."
             )
 
+        for name, form in (("curiosity_form", curiosity_form), ("gail_form", gail_form)):
+            if form not in FORMS:
+                raise ValueError(f"{name} must be one of {', '.join(FORMS)}, got {form!r}")
+        if gail_form == "ours" and not gail_use_actions:
+            raise ValueError('gail_use_actions=False needs gail_form="mlagents": our D(s, a) sees the action')
         self.curiosity_strength = curiosity_strength
         self.curiosity_forward_weight = curiosity_forward_weight
         self.gail_strength = gail_strength
@@ -163,14 +188,26 @@ class PPOCuriosityGail(PPO):
         self.shaping_columns = (
             None if shaping_columns is None else torch.as_tensor(shaping_columns, device=self.device)
         )
-        self.curiosity: IntrinsicCuriosityModule | None = None
+        self.curiosity: CuriosityModel | None = None
         if use_curiosity:
-            self._build_curiosity(curiosity_encoding_size, curiosity_hidden_dims, curiosity_learning_rate)
-        self.discriminator: GailDiscriminator | None = None
-        if use_gail:
-            self._build_discriminator(
-                expert_demonstrations, expected_observation_config, gail_hidden_dims, gail_learning_rate
+            self._build_curiosity(
+                curiosity_form, curiosity_encoding_size, curiosity_hidden_dims, curiosity_learning_rate
             )
+        self.discriminator: GailDiscriminator | MlAgentsDiscriminator | None = None
+        if use_gail:
+            if not expert_demonstrations:
+                raise ValueError("use_gail=True needs expert_demonstrations (a list of .npz files).")
+            self._load_demonstrations(expert_demonstrations, expected_observation_config)
+            action_dim = self.storage.actions.shape[-1]
+            self.discriminator = (
+                GailDiscriminator(self._shaping_dim, action_dim, gail_hidden_dims)
+                if gail_form == "ours"
+                else MlAgentsDiscriminator(self._shaping_dim, action_dim, gail_hidden_dims, gail_use_actions)
+            ).to(self.device)
+            self.discriminator_optimizer = torch.optim.Adam(
+                self.discriminator.parameters(), lr=gail_learning_rate
+            )
+            self.gail_rewards = torch.zeros(self._rollout_shape, device=self.device)
         shaping_modules = (self.curiosity is not None) + (self.discriminator is not None)
         self.shaping_threads = (
             ThreadPoolExecutor(shaping_modules) if shaping_update_threads and shaping_modules else None
@@ -190,10 +227,14 @@ class PPOCuriosityGail(PPO):
     def _rollout_shape(self) -> tuple[int, int]:
         return (self.storage.num_transitions_per_env, self.storage.num_envs)
 
-    def _build_curiosity(self, encoding_size: int, hidden_dims: Sequence[int], learning_rate: float) -> None:
+    def _build_curiosity(
+        self, form: str, encoding_size: int, hidden_dims: Sequence[int], learning_rate: float
+    ) -> None:
         action_dim = self.storage.actions.shape[-1]
-        self.curiosity = IntrinsicCuriosityModule(
-            self._shaping_dim, action_dim, encoding_size, hidden_dims
+        self.curiosity = (
+            IntrinsicCuriosityModule(self._shaping_dim, action_dim, encoding_size, hidden_dims)
+            if form == "ours"
+            else MlAgentsCuriosity(self._shaping_dim, action_dim, encoding_size)
         ).to(self.device)
         self.curiosity_optimizer = torch.optim.Adam(self.curiosity.parameters(), lr=learning_rate)
         # s_t+1 of each stored transition; RolloutStorage keeps only s_t. Allocated here, outside the
@@ -201,24 +242,20 @@ class PPOCuriosityGail(PPO):
         self.next_states = torch.zeros(*self._rollout_shape, self._shaping_dim, device=self.device)
         self.curiosity_rewards = torch.zeros(self._rollout_shape, device=self.device)
 
-    def _build_discriminator(
+    def _load_demonstrations(
         self,
         expert_demonstrations: Sequence[str | os.PathLike],
         expected_observation_config: dict | str | None,
-        hidden_dims: Sequence[int],
-        learning_rate: float,
     ) -> None:
-        if not expert_demonstrations:
-            raise ValueError("use_gail=True needs expert_demonstrations (a list of .npz files).")
-        action_dim = self.storage.actions.shape[-1]
+        """The expert's (observation, action) pairs, the observations restricted to ``shaping_columns``."""
         expert_observations, expert_actions = load_demonstrations(
-            expert_demonstrations, self._observation_dim, action_dim, expected_observation_config
+            expert_demonstrations,
+            self._observation_dim,
+            self.storage.actions.shape[-1],
+            expected_observation_config,
         )
         self.expert_observations = self._shaping_part(expert_observations.to(self.device))
         self.expert_actions = expert_actions.to(self.device)
-        self.discriminator = GailDiscriminator(self._shaping_dim, action_dim, hidden_dims).to(self.device)
-        self.discriminator_optimizer = torch.optim.Adam(self.discriminator.parameters(), lr=learning_rate)
-        self.gail_rewards = torch.zeros(self._rollout_shape, device=self.device)
 
     # --- Rollout --------------------------------------------------------------------------------------------
 
@@ -241,8 +278,8 @@ class PPOCuriosityGail(PPO):
         if self.curiosity is not None:
             next_states = self._shaping_observation(obs)
             not_done = dones == 0
-            curiosity_rewards = self.curiosity_strength * self.curiosity.normalized_surprise(
-                states, actions, next_states, not_done
+            curiosity_rewards = self.curiosity.reward(
+                states, actions, next_states, not_done, self.curiosity_strength
             )
             self.next_states[step].copy_(next_states)
             self.curiosity_rewards[step].copy_(curiosity_rewards)
@@ -256,7 +293,7 @@ class PPOCuriosityGail(PPO):
         super().process_env_step(obs, shaped_rewards, dones, extras)
 
     def compute_returns(self, obs: TensorDict) -> None:
-        if self.discriminator is not None:
+        if self.discriminator is not None and self.discriminator.centred_reward:
             self.storage.rewards -= self.gail_rewards.mean()  # centred: see the class docstring
         super().compute_returns(obs)
 
@@ -291,17 +328,18 @@ class PPOCuriosityGail(PPO):
                 )
             )
         if self.discriminator is not None:
-            agent_batches, expert_batches = [], []
+            agent_batches, expert_batches, loss_noises = [], [], []
             for _ in range(self.shaping_epochs):
                 for batch in self._shuffled_batches(states.shape[0]):
                     agent_batches.append(batch)
                     expert_batches.append(
                         torch.randint(self.expert_observations.shape[0], (batch.numel(),), device=self.device)
                     )
+                    loss_noises.append(self.discriminator.loss_noise(batch.numel()))
             gail_reward = self.gail_rewards.mean().item()
             shaping_updates.append(
                 lambda: (
-                    self.update_discriminator(states, actions, agent_batches, expert_batches)
+                    self.update_discriminator(states, actions, agent_batches, expert_batches, loss_noises)
                     | {"gail_reward": gail_reward}
                 )
             )
@@ -322,15 +360,15 @@ class PPOCuriosityGail(PPO):
         next_states: torch.Tensor,
         batches: Sequence[torch.Tensor],
     ) -> dict[str, float]:
-        """Minimise (1 - beta) L_I + beta L_F (Pathak et al. 2017, Eq. 7), one optimiser step per mini-batch
-        of ``batches`` (indices of the transitions)."""
+        """Minimise (1 - beta) L_I + beta L_F (Pathak et al. 2017, Eq. 7) times the module's
+        ``loss_multiplier``, one optimiser step per mini-batch of ``batches`` (transitions' indices)."""
         forward_losses, inverse_losses = [], []
         for batch in batches:
             forward_loss, inverse_loss = self.curiosity.losses(
                 states[batch], actions[batch], next_states[batch]
             )
             beta = self.curiosity_forward_weight
-            loss = (1.0 - beta) * inverse_loss + beta * forward_loss
+            loss = self.curiosity.loss_multiplier * ((1.0 - beta) * inverse_loss + beta * forward_loss)
             self.curiosity_optimizer.zero_grad()
             loss.backward()
             self.curiosity_optimizer.step()
@@ -344,13 +382,19 @@ class PPOCuriosityGail(PPO):
         actions: torch.Tensor,
         batches: Sequence[torch.Tensor],
         expert_batches: Sequence[torch.Tensor],
+        loss_noises: Sequence[torch.Tensor | None],
     ) -> dict[str, float]:
         """Train D to tell expert pairs (label 1) from the agent's (label 0), one optimiser step per agent
-        mini-batch of ``batches``, each paired with the expert pairs of ``expert_batches`` (as many)."""
+        mini-batch of ``batches``, each paired with the expert pairs of ``expert_batches`` (as many) and the
+        random numbers of ``loss_noises`` (the discriminator's ``loss_noise``)."""
         bce_losses, penalties, accuracies = [], [], []
-        for batch, expert in zip(batches, expert_batches, strict=True):
+        for batch, expert, noise in zip(batches, expert_batches, loss_noises, strict=True):
             bce, gradient_penalty, accuracy = self.discriminator.losses(
-                states[batch], actions[batch], self.expert_observations[expert], self.expert_actions[expert]
+                states[batch],
+                actions[batch],
+                self.expert_observations[expert],
+                self.expert_actions[expert],
+                noise,
             )
             loss = bce + self.gail_gradient_penalty * gradient_penalty
             self.discriminator_optimizer.zero_grad()

@@ -2,6 +2,8 @@
 
     python -m cabinbench.train --baseline ppo_gail|ppo|ppo_icm|ppo_gail_only [...]
     python -m cabinbench.train --baseline ppo_gail_study --stage cleaning|tracking
+    python -m cabinbench.train --baseline ppo_lstm [--rnn-hidden-dim N]
+    python -m cabinbench.train --baseline bc|dagger [--episodes-per-iteration N] [--beta-decay P] [--epochs N]
     python -m cabinbench.train --baseline ppo_gail_team [--agents K] [--[no-]centralised-critic]
         [--team-weight W] [--init-policy FILE|NAME]
         [--layout NAME ... | --suite NAME [--demo-layouts N]] [--iterations N] [--num-envs N]
@@ -53,6 +55,10 @@ directory ``<name>__seed<S>`` in the folder ``--run-dir`` (default ``runs/train`
 ``--baseline`` names the sweep trains every seed of each (``scripts/train_policies.sh``: 4 x 3 runs).
 An interrupted sweep continues with the same command and ``--resume``: each unfinished seed resumes from its
 latest checkpoint, a finished one is only exported again.
+
+``ppo_lstm`` is PPO with an LSTM memory on lidar and velocity (``RecurrentTrainConfig``); ``bc`` and
+``dagger`` imitate the boustrophedon expert (``cabinbench.baselines.imitation``), choose their checkpoint on
+cabin-v1-val and take the options of ``ImitationConfig`` (the rsl-rl ones are refused).
 
 A run directory is locked while a process trains in it: a second ``train`` there is refused, changing
 nothing. The options are generated from ``TrainConfig``'s fields (``options.option``) and ``TrainCommand``'s;
@@ -234,8 +240,6 @@ def checked_config(args: argparse.Namespace) -> tuple[TrainConfig, Path]:
 
 def train_checked(args: argparse.Namespace, trainer: Trainer, config: TrainConfig, run_dir: Path) -> int:
     """Train (or export) the run of a checked config, then ship or keep it as asked; the exit status."""
-    from cabinbench.baselines.ppo_gail.training.loop import export_latest, train
-
     name = shipped_name(args)
     print(
         f"{'exporting' if args.export_latest else 'training'} {name} on {config.trained_on}: "
@@ -245,9 +249,9 @@ def train_checked(args: argparse.Namespace, trainer: Trainer, config: TrainConfi
     )
     try:
         if args.export_latest:
-            result = export_latest(config, run_dir)
+            result = trainer.export_latest(config, run_dir)
         else:
-            result = train(config, run_dir, resume=args.resume, progress=not args.no_progress)
+            result = trainer.train(config, run_dir, resume=args.resume, progress=not args.no_progress)
     except (UserError, FileExistsError, FileNotFoundError, ValueError) as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE

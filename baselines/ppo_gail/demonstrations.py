@@ -8,8 +8,9 @@ The file schema is fixed by the demonstration recorder:
 - ``observation_config``: a 0-d string array holding a JSON description of the observation layout.
 
 GAIL only needs the (observation, action) pairs; ``episode`` is validated so that a malformed recording is
-caught here rather than by whoever reads it next. Every error names the offending file and what is wrong with
-it.
+caught here rather than by whoever reads it next. Further keys are left alone: the team datasets of
+``datasets.py`` add each row's robot and each episode's layout. Every error names the offending file and
+what is wrong with it.
 """
 
 from __future__ import annotations

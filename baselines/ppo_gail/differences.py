@@ -95,6 +95,18 @@ class CodeRow:
 
 
 UNTESTED = "chosen for a CPU's throughput; no trial against the study's value is recorded"
+PLANNER_EXPERT = "no human demonstrations are public; the planner is the expert the benchmark has"
+
+CURIOSITY_FORMS = {
+    "mlagents": "ML-Agents': clip(strength x forward error, 0, 1); loss 10 (0.2 L_F + 0.8 L_I); encoder "
+    "2 swish layers, models 1 x 256 (mlagents.py)",
+    "ours": "strength x forward error / its running std; loss 0.2 L_F + 0.8 L_I; encoder, models 1 x 256 ELU",
+}
+GAIL_FORMS = {
+    "mlagents": "ML-Agents': -log(1 - D + 1e-7), WGAN-GP penalty between agent and expert samples "
+    "(mlagents.py)",
+    "ours": "logit log D - log(1 - D), centred on the rollout's mean; R1 penalty at the expert samples",
+}
 
 ROWS: list[Row | CodeRow] = [
     CodeRow(
@@ -193,8 +205,17 @@ ROWS: list[Row | CodeRow] = [
         "(docs/experiments.md, Action std)",
         why_study="not stated; ML-Agents does not clamp it",
     ),
+    Row(
+        "curiosity reward and model",
+        "curiosity_form",
+        CURIOSITY_FORMS.get,
+        why_ppo_gail="the raw forward error scales with the learned features' drift; over its running std "
+        "it is in units of typical surprise, so a strength means the same across envs and over training "
+        "(reward_models.py)",
+    ),
     Row("curiosity strength", "curiosity_strength"),
     Row("curiosity encoding size", "curiosity_encoding_size"),
+    Row("curiosity learning rate", "curiosity_learning_rate"),
     Row(
         "GAIL strength",
         "gail_strength",
@@ -202,22 +223,53 @@ ROWS: list[Row | CodeRow] = [
         "0.53 of a320_cell, no full_cabin cell (docs/experiments.md, GAIL strength)",
     ),
     Row("GAIL discriminator hidden layers (encoding_size)", "gail_hidden_dims", _layers),
-    CodeRow(
-        "GAIL reward",
-        "not stated",
-        "logit log D - log(1 - D), centred on the rollout's mean",
-        "logit log D - log(1 - D), centred on the rollout's mean",
-        why_ppo_gail="uncentred, the mostly negative logit pays the agent to end episodes early "
+    Row(
+        "GAIL reward and gradient penalty",
+        "gail_form",
+        GAIL_FORMS.get,
+        why_ppo_gail="-log(1 - D) is positive, a bonus for every step, and episodes end on success: it pays "
+        "the agent not to finish; the logit uncentred is mostly negative and pays it to end episodes early "
         "(docs/experiments.md, GAIL reward centring)",
-        why_study="not stated; this package's one GAIL",
+    ),
+    Row(
+        "GAIL discriminator input",
+        "gail_use_actions",
+        lambda use_actions: "observation and action" if use_actions else "observation",
+        why_ppo_gail="Ho & Ermon's D(s, a)",
+    ),
+    Row(
+        "GAIL gradient penalty weight",
+        "gail_gradient_penalty",
+        why_ppo_gail="the R1 penalty on BCE logits, lower than the 5-10 of least-squares discriminators "
+        "(docs/experiments.md)",
+    ),
+    Row("GAIL learning rate", "gail_learning_rate"),
+    CodeRow(
+        "value estimates",
+        "not stated",
+        "one critic of the summed reward",
+        "one critic of the summed reward",
+        why_ppo_gail="rsl-rl's storage holds one reward stream",
+        why_study="not stated; ML-Agents' PPO gives each reward signal a value head of its own, each "
+        "discounted by its gamma (all 0.99 in Table 5.3); rsl-rl's storage holds one reward stream",
     ),
     CodeRow(
-        "GAIL discriminator input",
+        "initial weights of every network",
         "not stated",
-        "observation and action",
-        "observation and action",
-        why_ppo_gail="Ho & Ermon's D(s, a)",
-        why_study="not stated (ML-Agents' default `use_actions: false` shows it the observation only)",
+        "torch's default (Kaiming uniform)",
+        "torch's default (Kaiming uniform)",
+        why_ppo_gail="rsl-rl's and torch's defaults",
+        why_study="not stated; ML-Agents' TensorFlow trainers drew Glorot uniform weights, not reproduced",
+    ),
+    CodeRow(
+        "curiosity at an episode's last step",
+        "not stated",
+        "none: the next observation is the reset's",
+        "none: the next observation is the reset's",
+        why_ppo_gail="the runner hands over the next episode's first observation, whose prediction error "
+        "says nothing about the dynamics",
+        why_study="not stated; ML-Agents rewards the episode's last observation, which rsl-rl's runner "
+        "does not hand over",
     ),
     Row(
         "training steps",
@@ -229,16 +281,30 @@ ROWS: list[Row | CodeRow] = [
     CodeRow(
         "demonstrator",
         "a person at the keyboard: 4827 steps in all for cleaning, 944 for tracking",
-        "the boustrophedon planner, deterministic: its episodes repeat one trajectory",
+        "the boustrophedon planner, its episodes varied (start pose, perturbed path)",
         "the boustrophedon planner, deterministic: its episodes repeat one trajectory",
         source="§4.3.4",
-        why_ppo_gail="no human demonstrations are public; the planner is the expert the benchmark has",
-        why_study="no human demonstrations are public; the planner is the expert the benchmark has",
+        why_ppo_gail=PLANNER_EXPERT,
+        why_study=PLANNER_EXPERT,
     ),
     Row(
         "demonstration episodes per cell",
         "demo_episodes",
         why_ppo_gail="the planner's episodes are identical; more would add no data",
+    ),
+    Row(
+        "demonstrations start at a random pose",
+        "demo_random_start",
+        _yes_no,
+        why_ppo_gail="the layout's start, where the plan begins; the shipped policies learnt from these",
+        why_study="not stated; a person starts each episode somewhere else",
+    ),
+    Row(
+        "demonstrations' executed actions perturbed (std)",
+        "demo_action_noise",
+        why_ppo_gail="noisy demonstrations made the policies worse (docs/experiments.md)",
+        why_study="not stated; a person drives unsteadily: the planner's path, perturbed, and its way back "
+        "recorded (DART); the std is a guess",
     ),
     Row(
         "random start pose per episode",

@@ -15,7 +15,8 @@ plain values and tensors, written by ``export_policy`` at the end of training
 (``baselines.ppo_gail.training``)::
 
     format              "cabinbench-policy/1"
-    ablation            "ppo_gail" | "ppo" | "ppo_icm" | "ppo_gail_only" | "ppo_gail_team" (the baseline)
+    ablation            the baseline: "ppo_gail" | "ppo" | "ppo_icm" | "ppo_gail_only" | "ppo_gail_team" |
+                        "ppo_lstm" | "bc" | "dagger" (``baselines.imitation``)
     actor               {"hidden_dims": [64, 64], "activation": "elu", "observation_size": D,
                          "action_size": 2,
                          "state_dict": the MLP's weights, rsl-rl's key names ("0.weight", "0.bias", ...)}
@@ -27,6 +28,8 @@ plain values and tensors, written by ``export_policy`` at the end of training
     env_config          the training envs' layouts, reward preset, terminate_on_bound, max_steps (a team's:
                         n_agents, team_weight)
     training            the training summary: iterations, steps, time, final coverage and success ...
+    memory              only a recurrent actor's (``ppo_lstm``): its normaliser and RNN, which feed ``actor``
+                        (``baselines.ppo_gail.memory``; ``obs_normalizer`` is then None)
 
 The actor is rebuilt here from its saved architecture in plain torch (no rsl-rl import), and reproduces
 rsl-rl's inference policy exactly (tested).
@@ -125,7 +128,10 @@ def export_policy(
     env_config: dict,
     training: dict,
 ) -> Path:
-    """Write the policy file of an rsl-rl ``OnPolicyRunner``'s actor (atomically). Returns the path."""
+    """Write the policy file of an rsl-rl ``OnPolicyRunner``'s actor (atomically). Returns the path. A
+    recurrent actor's normaliser goes with its RNN, under ``memory`` (``baselines.ppo_gail.memory``)."""
+    from cabinbench.baselines.ppo_gail.memory import memory_entry
+
     model = runner.alg.get_policy()
     normalizer = None
     if model.obs_normalization:
@@ -135,29 +141,35 @@ def export_policy(
             "std": stats.std.detach().cpu().clone(),
             "eps": float(stats.eps),
         }
-    actor_cfg = runner.cfg["actor"]
-    linear_layers = [module for module in model.mlp if isinstance(module, nn.Linear)]
-    exported = {
-        "format": FORMAT,
-        "ablation": ablation,
-        "actor": {
-            "hidden_dims": [layer.out_features for layer in linear_layers[:-1]],
-            "activation": actor_cfg.get("activation", "elu"),
-            "observation_size": int(model.obs_dim),
-            "action_size": int(linear_layers[-1].out_features),
-            "state_dict": {
-                key: value.detach().cpu().clone() for key, value in model.mlp.state_dict().items()
-            },
-        },
-        "obs_normalizer": normalizer,
-        "action_std": _action_std(model),
-        "observation_config": _plain(observation_config),
-        "env_config": _plain(env_config),
-        "training": _plain(training),
+    memory = {"memory": memory_entry(model, normalizer)} if model.is_recurrent else {}
+    return write_policy_file(
+        path,
+        model.mlp,
+        runner.cfg["actor"].get("activation", "elu"),
+        ablation=ablation,
+        obs_normalizer=None if memory else normalizer,
+        action_std=_action_std(model),
+        observation_config=observation_config,
+        env_config=env_config,
+        training=training,
+        **memory,
+    )
+
+
+def write_policy_file(path: str | os.PathLike, network: nn.Sequential, activation: str, **entries) -> Path:
+    """Write the policy file of the MLP ``network`` (Linear, activation, ..., Linear) atomically, with the
+    further ``entries`` of the format (``ablation``, ``obs_normalizer`` ...). Returns the path."""
+    linear_layers = [module for module in network if isinstance(module, nn.Linear)]
+    actor = {
+        "hidden_dims": [layer.out_features for layer in linear_layers[:-1]],
+        "activation": activation,
+        "observation_size": int(linear_layers[0].in_features),
+        "action_size": int(linear_layers[-1].out_features),
+        "state_dict": {key: value.detach().cpu().clone() for key, value in network.state_dict().items()},
     }
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_torch_save(exported, path)
+    atomic_torch_save({"format": FORMAT, "actor": actor, **_plain(entries)}, path)
     return path
 
 
@@ -308,11 +320,15 @@ class LearnedPolicy(Baseline):
 
     def act(self, observation: np.ndarray, info: dict) -> np.ndarray:
         with torch.no_grad(), one_torch_thread():
-            mean = self.policy["network"](torch.as_tensor(observation, dtype=torch.float32).reshape(1, -1))
+            mean = self.mean_action(torch.as_tensor(observation, dtype=torch.float32).reshape(1, -1))
         action = mean[0].numpy().astype(np.float64)
         if self.stochastic:
             action = action + self.action_std * self.rng.standard_normal(action.shape)
         return np.clip(action, -1.0, 1.0)
+
+    def mean_action(self, observation: torch.Tensor) -> torch.Tensor:
+        """The policy's mean action [1, A] (not clipped) for one observation [1, D]."""
+        return self.policy["network"](observation)
 
 
 class PPOGail(LearnedPolicy):

@@ -1,6 +1,11 @@
-"""The two learned reward signals of ``PPOCuriosityGail`` (``algorithm.py``): the Intrinsic Curiosity Module
-(Pathak et al. 2017; the study's Eq. 4.23-4.28) and the GAIL discriminator (Ho & Ermon 2016; the study's
-§4.2.7), with the running std that keeps the curiosity reward in units of typical surprise."""
+"""The two learned reward signals of ``PPOCuriosityGail`` (``algorithm.py``) in our form: the Intrinsic
+Curiosity Module (Pathak et al. 2017; the study's Eq. 4.23-4.28) and the GAIL discriminator (Ho & Ermon 2016;
+the study's §4.2.7), with the running std that keeps the curiosity reward in units of typical surprise.
+``mlagents.py`` holds the forms of Unity ML-Agents, which the study ran.
+
+A curiosity module offers ``losses``, ``loss_multiplier`` and ``reward(states, actions, next_states, valid,
+strength)``; a discriminator ``losses``, ``loss_noise``, ``reward(states, actions)`` (before the strength) and
+``centred_reward``."""
 
 from __future__ import annotations
 
@@ -52,14 +57,41 @@ class RunningStd(nn.Module):
         return self.var.sqrt().float()
 
 
-class IntrinsicCuriosityModule(nn.Module):
-    """Intrinsic Curiosity Module (Pathak et al. 2017, §2.2; the study's Eq. 4.23-4.28).
+class CuriosityModel(nn.Module):
+    """What every curiosity module shares: an ``encoder`` phi(s), a ``forward_model`` f(phi(s_t), a_t) ->
+    phi_hat(s_t+1) and an ``inverse_model`` g(phi(s_t), phi(s_t+1)) -> a_hat_t, set by the subclass, and
+    the losses of Pathak et al. (2017) on them. A subclass says how the surprise becomes a reward
+    (``reward``) and by how much the algorithm multiplies its loss (``loss_multiplier``)."""
 
-    - Feature encoder phi(s).
-    - Inverse model g(phi(s_t), phi(s_t+1)) -> a_hat_t, loss L_I = ||a_hat_t - a_t||^2 (continuous actions:
-      squared error instead of the paper's cross-entropy over discrete actions).
-    - Forward model f(phi(s_t), a_t) -> phi_hat(s_t+1), loss L_F = 1/2 ||phi_hat(s_t+1) - phi(s_t+1)||^2.
-    - Surprise 1/2 ||phi_hat(s_t+1) - phi(s_t+1)||^2, the intrinsic reward before scaling by eta.
+    loss_multiplier = 1.0
+    """The algorithm minimises ``loss_multiplier * ((1 - beta) L_I + beta L_F)``."""
+
+    def losses(
+        self, states: torch.Tensor, actions: torch.Tensor, next_states: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """Return the batch means of the forward loss L_F = 1/2 ||phi_hat(s_t+1) - phi(s_t+1)||^2 and the
+        inverse loss L_I = ||a_hat_t - a_t||^2 (continuous actions: squared error instead of the paper's
+        cross-entropy over discrete actions)."""
+        features = self.encoder(states)
+        next_features = self.encoder(next_states)
+        predicted_next_features = self.forward_model(torch.cat([features, actions], dim=-1))
+        predicted_actions = self.inverse_model(torch.cat([features, next_features], dim=-1))
+        forward_loss = 0.5 * (predicted_next_features - next_features).square().sum(dim=-1).mean()
+        inverse_loss = (predicted_actions - actions).square().sum(dim=-1).mean()
+        return forward_loss, inverse_loss
+
+    def surprise(
+        self, states: torch.Tensor, actions: torch.Tensor, next_states: torch.Tensor
+    ) -> torch.Tensor:
+        """1/2 ||phi_hat(s_t+1) - phi(s_t+1)||^2 of each transition, shape [B]."""
+        next_features = self.encoder(next_states)
+        predicted_next_features = self.forward_model(torch.cat([self.encoder(states), actions], dim=-1))
+        return 0.5 * (predicted_next_features - next_features).square().sum(dim=-1)
+
+
+class IntrinsicCuriosityModule(CuriosityModel):
+    """Intrinsic Curiosity Module (Pathak et al. 2017, §2.2; the study's Eq. 4.23-4.28), ours: its surprise
+    divided by its running std.
 
     The encoder is trained by both losses, as in Pathak's reference implementation; the (1 - beta) weight on
     the inverse loss keeps phi informative about the action instead of collapsing to what is easy to predict.
@@ -83,33 +115,25 @@ class IntrinsicCuriosityModule(nn.Module):
         # normalisation of Burda et al. 2018 does).
         self.surprise_std = RunningStd()
 
-    def losses(
-        self, states: torch.Tensor, actions: torch.Tensor, next_states: torch.Tensor
-    ) -> tuple[torch.Tensor, torch.Tensor]:
-        """Return the batch means of the forward loss L_F and the inverse loss L_I."""
-        features = self.encoder(states)
-        next_features = self.encoder(next_states)
-        predicted_next_features = self.forward_model(torch.cat([features, actions], dim=-1))
-        predicted_actions = self.inverse_model(torch.cat([features, next_features], dim=-1))
-        forward_loss = 0.5 * (predicted_next_features - next_features).square().sum(dim=-1).mean()
-        inverse_loss = (predicted_actions - actions).square().sum(dim=-1).mean()
-        return forward_loss, inverse_loss
-
     @torch.no_grad()
-    def normalized_surprise(
-        self, states: torch.Tensor, actions: torch.Tensor, next_states: torch.Tensor, valid: torch.Tensor
+    def reward(
+        self,
+        states: torch.Tensor,
+        actions: torch.Tensor,
+        next_states: torch.Tensor,
+        valid: torch.Tensor,
+        strength: float,
     ) -> torch.Tensor:
-        """Surprise of each transition divided by its running std; zero where ``valid`` is False.
+        """``strength`` times the surprise of each transition divided by its running std; zero where
+        ``valid`` is False.
 
         ``valid`` marks transitions whose ``next_states`` really follow ``states``. For an environment that is
         done, the runner hands over the first observation of the next episode, whose prediction error is
         meaningless; it is neither rewarded nor counted in the running std.
         """
-        next_features = self.encoder(next_states)
-        predicted_next_features = self.forward_model(torch.cat([self.encoder(states), actions], dim=-1))
-        surprise = 0.5 * (predicted_next_features - next_features).square().sum(dim=-1)
+        surprise = self.surprise(states, actions, next_states)
         self.surprise_std.update(surprise[valid])
-        return surprise / self.surprise_std.std.clamp_min(1e-8) * valid
+        return strength * (surprise / self.surprise_std.std.clamp_min(1e-8) * valid)
 
 
 class GailDiscriminator(nn.Module):
@@ -123,11 +147,19 @@ class GailDiscriminator(nn.Module):
     ending early attractive unless the environment penalises the failure.
     """
 
+    centred_reward = True
+    """The algorithm subtracts the rollout's mean reward (``PPOCuriosityGail.compute_returns``)."""
+
     def __init__(
         self, observation_dim: int, action_dim: int, hidden_dims: Sequence[int], activation: str = "elu"
     ):
         super().__init__()
         self.network = MLP(observation_dim + action_dim, 1, hidden_dims, activation)
+
+    def loss_noise(self, batch_size: int) -> None:
+        """The random numbers ``losses`` needs for a batch: none (the R1 penalty is taken at the expert
+        samples)."""
+        return None
 
     def logits(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
         """Return logit(s, a) = log D(s, a) - log(1 - D(s, a)), shape [B]."""
@@ -144,8 +176,10 @@ class GailDiscriminator(nn.Module):
         agent_actions: torch.Tensor,
         expert_states: torch.Tensor,
         expert_actions: torch.Tensor,
+        noise: None = None,
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """Return the BCE loss, the gradient penalty and the classification accuracy on one batch.
+        """Return the BCE loss, the gradient penalty and the classification accuracy on one batch
+        (``noise``: what ``loss_noise`` drew, nothing).
 
         The gradient penalty is the zero-centred R1 penalty E_expert ||grad_(s,a) logit||^2 (Mescheder et al.
         2018). It keeps the discriminator from becoming arbitrarily sharp around the expert data, which would

@@ -65,15 +65,23 @@ STUDY: dict[str, Stated] = {
     "lam": Stated(0.95, "Table 5.2: lambda"),
     "num_learning_epochs": Stated(3, "Table 5.2: num_epoch"),
     "gamma": Stated(0.99, "Table 5.3: gamma of every reward signal"),
+    "curiosity_form": Stated("mlagents", "§5.2.1: ML-Agents' curiosity reward signal"),
     "curiosity_strength": Stated(0.02, "Table 5.3"),
     "curiosity_encoding_size": Stated(256, "Table 5.3"),
+    "curiosity_learning_rate": Stated(3.0e-4, "ML-Agents' default; Table 5.3 does not set it"),
+    "gail_form": Stated("mlagents", "§5.2.1: ML-Agents' GAIL reward signal"),
     "gail_strength": Stated(0.3, "Table 5.3"),
     "gail_hidden_dims": Stated([128, 128], "Table 5.3: encoding_size 128 (ML-Agents: 2 layers of it)"),
+    "gail_use_actions": Stated(False, "ML-Agents' default use_actions: false; Table 5.3 does not set it"),
+    "gail_gradient_penalty": Stated(10.0, "ML-Agents' GAIL gradient penalty weight, fixed in its code"),
+    "gail_learning_rate": Stated(3.0e-4, "ML-Agents' default; Table 5.3 does not set it"),
     "demo_episodes": Stated((34, 32), "§4.3.4, Figs. 4.16, 4.17: 34 and 32 episodes", per_stage=True),
     "observation_size": Stated(244, "Fig. 4.16: Vector Observation Size 244 (rays and velocity)"),
 }
-"""The study's settings. Those named like ``TrainConfig`` fields or ``ALGORITHM_KEYS`` make ``study_config``;
-``differences.py`` compares them all, and lists what the study leaves unstated beside them."""
+"""The study's settings: the values it states, and the defaults of ML-Agents (the toolkit it trained with,
+``mlagents.py``) for what it leaves to them. Those named like ``TrainConfig`` fields or ``ALGORITHM_KEYS``
+make ``study_config``; ``differences.py`` compares them all, and lists what the study leaves unstated beside
+them."""
 
 ALGORITHM_KEYS = (
     "entropy_coef",
@@ -82,16 +90,26 @@ ALGORITHM_KEYS = (
     "lam",
     "num_learning_epochs",
     "gamma",
+    "curiosity_form",
     "curiosity_strength",
     "curiosity_encoding_size",
+    "curiosity_learning_rate",
+    "gail_form",
     "gail_strength",
     "gail_hidden_dims",
+    "gail_use_actions",
+    "gail_gradient_penalty",
+    "gail_learning_rate",
 )
 """The settings of ``STUDY`` that are ``PPOCuriosityGail`` arguments (``TrainConfig.algorithm``)."""
 
 UNSTATED = {
     # TrainConfig fields the study does not give, and what ppo_gail_study takes for them
-    "random_start": False,  # the layout's start, as in the demonstrations
+    "random_start": False,  # the layout's start: a Unity scene spawns its agent where it was placed
+    # A person's demonstrations vary: each episode from another pose, the path driven unsteadily. The
+    # planner's are made so (the env's random start pose, DART noise on its executed actions).
+    "demo_random_start": True,
+    "demo_action_noise": 0.2,
     "min_action_std": 0.0,  # ML-Agents does not clamp the policy's std
     "validation_episodes": 0,  # the study watched TensorBoard only; and at 512 x 2 validation is slow
     "save_interval": 25,  # a checkpoint every 51 200 steps: an interruption loses little

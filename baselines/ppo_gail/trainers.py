@@ -5,7 +5,9 @@ to its ``Trainer``, which makes the run's config, names what its policy ships as
   suite the policy ships as ``<baseline>_suite``;
 - ``ppo_gail_study``: the study's two networks, one per ``--stage`` (``study.study_config``), each shipped
   with its ``config.json`` and training summary beside it, as no ablation is;
-- ``ppo_gail_team``: ``team_training.TeamTrainConfig``, whose own fields are options of it alone.
+- ``ppo_gail_team``: ``team_training.TeamTrainConfig``, whose own fields are options of it alone;
+- ``ppo_lstm``: ``RecurrentTrainConfig``, PPO with an LSTM memory and no coverage patch;
+- ``bc`` and ``dagger``: ``baselines.imitation``'s ``ImitationConfig`` and its own training loop.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import os
 import shutil
 from pathlib import Path
 
+from cabinbench.baselines.imitation.config import ImitationConfig
 from cabinbench.baselines.ppo_gail.algorithm import ABLATIONS
 from cabinbench.baselines.ppo_gail.study import STAGES, stage_name, study_config
 from cabinbench.baselines.ppo_gail.team_training import TEAM_POLICY, TeamTrainConfig
@@ -23,9 +26,10 @@ from cabinbench.baselines.ppo_gail.training.config import (
     METRICS_FILE,
     POLICY_FILE,
     VALIDATION_FILE,
+    RecurrentTrainConfig,
     TrainConfig,
 )
-from cabinbench.baselines.ppo_gail.training.loop import TrainResult
+from cabinbench.baselines.ppo_gail.training.loop import TrainResult, export_latest, train
 
 TRAINING_RECORDS = Path("results/training")  # what --ship and --keep keep of a run
 
@@ -45,6 +49,14 @@ class Trainer:
     def shipped_name(self, baseline: str, stage: str | None, suite: str | None) -> str:
         """What the run's policy ships as, and its run directory is named after."""
         return baseline
+
+    def train(self, config: TrainConfig, run_dir: Path, resume: bool, progress: bool) -> TrainResult:
+        """Train (or resume) the run of ``config`` in ``run_dir``: rsl-rl's (``training.loop.train``)."""
+        return train(config, run_dir, resume=resume, progress=progress)
+
+    def export_latest(self, config: TrainConfig, run_dir: Path) -> TrainResult:
+        """Export the latest checkpoint of ``run_dir`` as its policy without training."""
+        return export_latest(config, run_dir)
 
     def ship(self, result: TrainResult, name: str, ship_dir: Path, config: TrainConfig) -> str:
         """Copy the exported policy to ``ship_dir/<name>.pt`` and the run's records to
@@ -100,13 +112,44 @@ class TeamTrainer(Trainer):
         return TEAM_POLICY
 
 
+class RecurrentTrainer(Trainer):
+    """``ppo_lstm``: ``RecurrentTrainConfig``, on layouts or on a suite."""
+
+    config_class = RecurrentTrainConfig
+    trains_on_suites = True
+
+
+class ImitationTrainer(Trainer):
+    """``bc`` and ``dagger``: ``ImitationConfig`` of the method, trained by ``baselines.imitation.training``
+    (its checkpoint chosen on cabin-v1-val), on layouts or on a suite."""
+
+    config_class = ImitationConfig
+    trains_on_suites = True
+
+    def config(self, baseline: str, stage: str | None, given: dict) -> ImitationConfig:
+        return ImitationConfig(method=baseline, **given)
+
+    def train(self, config: ImitationConfig, run_dir: Path, resume: bool, progress: bool) -> TrainResult:
+        from cabinbench.baselines.imitation.training import train
+
+        return train(config, run_dir, resume=resume, progress=progress)
+
+    def export_latest(self, config: ImitationConfig, run_dir: Path) -> TrainResult:
+        from cabinbench.baselines.imitation.training import export_latest
+
+        return export_latest(config, run_dir)
+
+
 TRAINERS: dict[str, Trainer] = {
     **{name: AblationTrainer() for name in sorted(ABLATIONS, key=lambda name: name != "ppo_gail")},
     "ppo_gail_study": StudyTrainer(),
     TEAM_POLICY: TeamTrainer(),
+    "ppo_lstm": RecurrentTrainer(),
+    "bc": ImitationTrainer(),
+    "dagger": ImitationTrainer(),
 }
-"""Each trainable baseline's trainer: ``ppo_gail`` (ours) first, then its ablations, the study's and the
-team's."""
+"""Each trainable baseline's trainer: ``ppo_gail`` (ours) first, then its ablations, the study's, the
+team's, the recurrent one's and the imitation learners'."""
 
 
 def keep(result: TrainResult, name: str, config: TrainConfig) -> Path:

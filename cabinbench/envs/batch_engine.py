@@ -169,7 +169,7 @@ class EnvShard:
         self.states = batch.states[rows].reshape(*per_env, batch.state_size)  # the env's state, a one-hot
         self._observation_rows = [list(robots) for robots in self.observations]  # each row's view, made once
         self._with_state = batch.state_size > 0
-        self.rewards = batch.rewards[rows].reshape(per_env)
+        self.rewards = batch.rewards[rows]
         self.terminated, self.truncated = batch.terminated[rows], batch.truncated[rows]
         self.envs = [
             TeamSuiteEnv(suite, None, n_agents, settings)
@@ -195,7 +195,7 @@ class EnvShard:
         rewards, ended, cut, finished = [], [], [], []
         for k, (env, action) in enumerate(zip(self.envs, self.actions)):
             env_rewards, terminated, truncated = env.advance(action)
-            rewards.append(env_rewards)
+            rewards += env_rewards
             ended.append(terminated)
             cut.append(truncated)
             if terminated or truncated:

@@ -15,6 +15,8 @@ Shipped suites:
 - ``cabin-v1-train``: 500 layouts of the family ``cabin_v1`` (2-2, 3-3, 2-3-2, 3-3-3), for training;
 - ``cabin-v1-test``: 100 layouts of ``cabin_v1`` from indices train never draws, disjoint from
   train by content hash (tested);
+- ``cabin-v1-val``: 50 layouts of ``cabin_v1`` in no other suite (by content hash): the only layouts
+  a training choice (a checkpoint, a setting, a seed) may read;
 - ``cabin-v1-ood``: 50 layouts of ``cabin_v1_ood``: seat configurations never in train (2-3,
   3-4-3), longer cabins, about three times the clutter;
 - ``classic``: the hand-made built-in layouts.

@@ -102,6 +102,9 @@ class TrainConfig:
     demo_action_noise: float = option(0.0, metavar="STD")
     """Std of the Gaussian noise added to the planner's executed actions while its own are recorded; 0:
     noisy demonstrations made the policies worse (docs/experiments.md)."""
+    demo_random_start: bool = option(False)
+    """Start each demonstration episode at a random pose of the start cell (drawn by the episode's seed)
+    instead of the layout's start, where the plan begins."""
     demo_max_steps: int | None = None
     """Step limit of the demonstration episodes (None: the training ``max_steps``)."""
     demo_layouts: int = option(8, metavar="N")
@@ -225,6 +228,11 @@ class TrainConfig:
         example = batched.example_env
         return RslRlVecEnv(batched), example.observation_config, example.observation_layout
 
+    @property
+    def model_settings(self) -> dict:
+        """rsl-rl model settings of the actor and the critic over ``make_train_cfg``'s MLP ones."""
+        return {}
+
     def initialise(self, runner) -> None:
         """Set the weights a new run starts from; here rsl-rl's random ones are kept."""
 
@@ -263,6 +271,8 @@ class TrainConfig:
         if not self.suite:  # a run on layouts: its config.json reads as it did before suites existed
             for name in SUITE_FIELDS:
                 del values[name]
+        if not self.demo_random_start:  # its config.json reads as it did before the field existed
+            del values["demo_random_start"]
         return values
 
     @classmethod
@@ -276,6 +286,50 @@ class TrainConfig:
         if unknown:
             raise ValueError(f"unknown TrainConfig field(s) {unknown}; known: {sorted(known)}")
         return cls(**values)
+
+
+@dataclass
+class RecurrentTrainConfig(TrainConfig):
+    """``ppo_lstm``: memory instead of a map. PPO alone (no curiosity, no GAIL) whose actor and critic are
+    rsl-rl's ``RNNModel`` (normaliser, LSTM, then the MLP), on lidar and velocity only: no coverage patch,
+    so what the robot has cleaned lives only in its LSTM state. rsl-rl resets a robot's state when its
+    episode ends (the batched env's dones) and trains on whole stretches of episodes, so each mini-batch is
+    ``num_envs / num_mini_batches`` envs' rollouts."""
+
+    ablation: str = "ppo"
+    coverage_patch: int = option(0, metavar="N")
+    """Cells across the coverage patch: 0, none (the memory ablation); see ``TrainConfig``."""
+    rnn_type: str = "lstm"
+    """rsl-rl's RNN: "lstm" (or "gru")."""
+    rnn_hidden_dim: int = option(64, metavar="N")
+    """Size of the LSTM state, which the MLP head reads."""
+    rnn_num_layers: int = 1
+    """Stacked LSTM layers."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.ablation != "ppo":
+            raise ValueError(f"ppo_lstm is PPO alone, ablation 'ppo', not {self.ablation!r}")
+        if self.rnn_type not in ("lstm", "gru"):
+            raise ValueError(f'rnn_type must be "lstm" or "gru", got {self.rnn_type!r}')
+        if self.num_envs % self.num_mini_batches:
+            raise ValueError(
+                f"num_envs ({self.num_envs}) must be a multiple of num_mini_batches "
+                f"({self.num_mini_batches}): a recurrent mini-batch is whole envs' rollouts"
+            )
+
+    @property
+    def policy_name(self) -> str:
+        return "ppo_lstm"
+
+    @property
+    def model_settings(self) -> dict:
+        return {
+            "class_name": "RNNModel",
+            "rnn_type": self.rnn_type,
+            "rnn_hidden_dim": self.rnn_hidden_dim,
+            "rnn_num_layers": self.rnn_num_layers,
+        }
 
 
 SUITE_FIELDS = ("suite", "suite_version", "demo_layouts")

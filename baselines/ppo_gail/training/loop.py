@@ -219,6 +219,8 @@ def build_runner(config: TrainConfig, run_dir: Path):
         shaping_update_threads=config.cores > 1,
         **config.algorithm,
     )
+    for model in ("actor", "critic"):
+        train_cfg[model].update(config.model_settings)
     if config.min_action_std > 0:
         train_cfg["actor"]["distribution_cfg"]["std_range"] = [config.min_action_std, 1.0e6]
     with open(run_dir / "rsl_rl.log", "a") as log, contextlib.redirect_stdout(log):
@@ -265,7 +267,7 @@ def expert_demonstrations(config: TrainConfig, run_dir: Path) -> list[str]:
             env_kwargs = {
                 **config.env_kwargs,
                 "max_steps": config.demo_max_steps or config.max_steps,
-                "random_start": False,
+                "random_start": config.demo_random_start,
             }
             record_demonstrations(
                 layout,
