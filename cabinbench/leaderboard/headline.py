@@ -44,6 +44,10 @@ OBSERVES = {
     "ppo_gail_suite": "lidar, velocity, coverage patch",
     "ppo_gail_team": "lidar, velocity, coverage patch",
     "ppo_gail_study": "lidar, velocity",
+    "ppo_lstm": "lidar, velocity, memory",
+    "bc": "lidar, velocity, coverage patch",
+    "dagger": "lidar, velocity, coverage patch",
+    "path": "a given plan, pose",
 }
 
 
