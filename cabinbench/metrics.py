@@ -90,6 +90,8 @@ METRICS = (
 )
 RATES = ("goals_reached", "success")
 """The metrics that are true or false per episode (summarised as rates)."""
+FRACTIONS = ("coverage", "coverage_free", "path_efficiency", "clean_score", *RATES)
+"""The metrics that live in [0, 1]: an interval of theirs is clipped to it."""
 TEAM_METRICS = ("n_agents", "robot_collisions", "path_lengths", "makespan", "load_balance")
 CLEARANCE_BANDS = (0.0, 0.05, 0.10, 0.20, 0.35)
 """Lower edges, in metres from the nearest wall, of the bands of :func:`uncovered_by_clearance`; the last

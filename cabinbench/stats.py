@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from cabinbench.metrics import METRICS, RATES, REACH_TIMES, TEAM_METRICS
+from cabinbench.metrics import FRACTIONS, METRICS, RATES, REACH_TIMES, TEAM_METRICS
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -198,14 +198,18 @@ def summarize_cells(metric: str, cells: Mapping[tuple[str, str], Sequence]) -> S
 def across_seeds(metric: str, cells: Mapping[tuple[str, str], Sequence]) -> Summary:
     """Each training seed's value of ``metric`` over its own layouts (:func:`summarize_cells`; a
     rate is the seed's own rate), then the mean over seeds with a Student-t interval (n = seeds):
-    a bootstrap over three seeds cannot reach beyond the seeds observed. Threshold times keep the
-    pooled fraction of episodes that reached the threshold."""
+    a bootstrap over three seeds cannot reach beyond the seeds observed. A fraction's interval is
+    clipped to [0, 1]; threshold times keep the pooled fraction of episodes that reached the
+    threshold."""
     policies = sorted({policy for policy, _ in cells})
     per_seed = [
         summarize_cells(metric, {key: cell for key, cell in cells.items() if key[0] == policy}).mean
         for policy in policies
     ]
     summary = t_interval([value for value in per_seed if not math.isnan(value)])
+    if metric in FRACTIONS:  # a fraction's interval stays in [0, 1]
+        low, high = (min(1.0, max(0.0, bound)) for bound in (summary.low, summary.high))
+        return Summary(summary.mean, low, high, summary.n)
     if metric not in REACH_TIMES:
         return summary
     pooled = _numbers(np.nan if value is None else value for cell in cells.values() for value in cell)

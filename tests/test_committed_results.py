@@ -41,38 +41,24 @@ def test_committed_leaderboard_and_paper_match_the_records(tmp_path, monkeypatch
 
 
 def test_readme_states_the_spread_of_the_main_commands_training_seeds():
-    """The README's main command runs the shipped ppo_gail policy on full_cabin; the coverage it
-    quotes for each training seed, and over all seeds, is the committed leaderboard's."""
+    """The README's main command runs the shipped ppo_gail policy (seed 0) on full_cabin; it says so,
+    and the coverage it quotes for each training seed, and over all seeds with the t interval and its
+    n, is the committed leaderboard's."""
     board = pd.read_csv(ROOT / "results" / "leaderboard.csv")
     main_command = (
         (board["layout"] == "full_cabin") & (board["baseline"] == "ppo_gail") & (board["n_agents"] == 1)
     )
     rows = board[main_command].set_index("policy")
     assert len(rows) == 4  # three training seeds and the row over all of them
-    coverage = rows["coverage_mean"]
-    assert coverage["seed0 (shipped)"] == coverage.max()  # "the best of three training seeds"
+    coverage, over_seeds = rows["coverage_mean"], rows.loc["all seeds"]
     readme = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
+    assert "It runs seed 0 of `ppo_gail`'s three training seeds, the policy the package ships." in readme
     assert (
-        f"coverage is {coverage['seed0 (shipped)']:.3f} (seed 0, shipped), against {coverage['seed1']:.3f} "
-        f"(seed 1) and {coverage['seed2']:.3f} (seed 2); over the three seeds {coverage['all seeds']:.3f}, "
-        f"95% interval [{rows.loc['all seeds', 'coverage_ci_low']:.3f}, "
-        f"{rows.loc['all seeds', 'coverage_ci_high']:.3f}]"
+        f"on `full_cabin` its coverage is {coverage['seed0 (shipped)']:.3f} (seed 0), against "
+        f"{coverage['seed1']:.3f} (seed 1) and {coverage['seed2']:.3f} (seed 2); over the three seeds "
+        f"{coverage['all seeds']:.3f}, 95% t interval [{over_seeds['coverage_ci_low']:.3f}, "
+        f"{over_seeds['coverage_ci_high']:.3f}] (n = {int(over_seeds['coverage_n'])} seeds)"
     ) in readme
-
-
-def test_no_committed_row_has_an_interval_over_identical_episodes_and_every_seed_is_shown():
-    board = pd.read_csv(ROOT / "results" / "leaderboard.csv")
-    bounds = [name for name in board.columns if name.endswith(("_ci_low", "_ci_high"))]
-    one_unit = board[board["distinct_episodes"] == 1]
-    assert len(one_unit) > 0 and one_unit[bounds].isna().all().all()  # boustrophedon from a fixed start
-    assert (board.loc[board["distinct_episodes"] > 1, "coverage_ci_low"].notna()).all()
-    table = (ROOT / "results" / "leaderboard.md").read_text(encoding="utf-8")
-    assert "deterministic: 20 identical episodes" in table and "1.00 ± 0.00" not in table
-    learned = board[board["policy"].notna()]
-    for (layout, baseline, agents), rows in learned.groupby(["layout", "baseline", "n_agents"]):
-        kept = sorted(path.name for path in (ROOT / "results" / "training" / baseline).glob("seed*"))
-        every_seed = {"seed0 (shipped)", *kept} | ({"all seeds"} if kept else set())
-        assert set(rows["policy"]) == every_seed, (layout, baseline, agents)
 
 
 def test_every_committed_figure_is_readable_at_its_natural_size():

@@ -130,10 +130,11 @@ def suite_page(
     body = [
         f"<h1>cabinbench leaderboard: suite {escape(suite)}</h1>",
         f"<p>{len(rows)} rows from {len(every)} episodes on {every['layout'].nunique()} layouts. "
-        "Scores: the mean over layouts (and training seeds) of per-layout means ± half-width of the "
-        "stratified bootstrap 95% interval (layouts, training seeds and episodes resampled; hover a cell "
-        "for the exact bounds); IQM over the per-(seed, layout) means; success with its Wilson interval "
-        "over distinct episodes; t90 reached: the fraction of episodes that reached 90% coverage. "
+        "Scores: the mean over layouts of per-layout means ± half-width of the 95% interval (one policy: a "
+        "stratified bootstrap over layouts and episodes; several training seeds: a t interval over the "
+        "seeds' own scores; hover a cell for the exact bounds); IQM over the per-(seed, layout) means; "
+        "success (the floor cleaned) with its interval; t90 reached: the fraction of episodes that "
+        "reached 90% coverage. "
         "Click a column title to sort by it. The suite's layouts: "
         f"<code>python -m cabinbench.suites --png {escape(suite)} FILE</code> draws them. "
         f'<a href="{suite_file(suite, "csv")}">Download the table (CSV)</a>.</p>',

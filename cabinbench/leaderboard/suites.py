@@ -3,7 +3,8 @@
 
 Per suite, a table with one row per (baseline, protocol, K) over every training seed, layout and
 distinct episode it ran (:mod:`cabinbench.stats`): the mean over layouts of per-layout means
-(over training seeds too for a learned baseline) with a stratified bootstrap 95% interval, the
+(a stratified bootstrap 95% interval; over several training seeds a t interval of the seeds' own
+scores), the
 IQM of the per-(seed, layout) means, success with a Wilson interval, the fraction of episodes that
 reached 90% coverage. Then performance profiles (fraction of layouts above each coverage and path
 efficiency level; a figure and a table at a few levels), the probability that each baseline beats
@@ -45,7 +46,7 @@ from cabinbench.stats import (
     probability_of_improvement,
     stratified_bootstrap,
     stratified_difference,
-    success_rate,
+    summarize_cells,
 )
 
 SUITE_KEY = ["baseline", "protocol", "n_agents"]
@@ -121,12 +122,14 @@ def suite_rows(episodes: pd.DataFrame) -> tuple[list[dict], list[str]]:
             "episodes": len(group),
             "distinct_episodes": len(pooled),
             "coverage_iqm": iqm([cell["coverage"].astype(float).mean() for cell in cells.values()]),
-            "success": success_rate(pooled["success"]),
+            "success": summarize_cells("success", {k: cell["success"] for k, cell in cells.items()}),
             "t90_reached": float(pooled["t90"].notna().mean()),
             "cells": cells,
         }
         for metric in SCORES:
-            row[metric] = stratified_bootstrap({k: cell[metric].astype(float) for k, cell in cells.items()})
+            row[metric] = summarize_cells(
+                metric, {k: cell[metric].astype(float) for k, cell in cells.items()}
+            )
         rows.append(row)
     return rows, notes
 
@@ -265,10 +268,11 @@ def _score_lines(rows: list[dict], episodes: pd.DataFrame) -> list[str]:
     """What the scores are, and the table of every row's scores."""
     lines = [
         f"{len(episodes)} episodes on {episodes['layout'].nunique()} layouts. Scores: the mean over layouts "
-        "(and training seeds) of per-layout means ± half-width of the stratified bootstrap 95% interval "
-        "(layouts, training seeds and episodes resampled); IQM over the per-(seed, layout) means; success "
-        "with its Wilson interval over distinct episodes; t90 reached: the fraction of episodes that "
-        "reached 90% coverage.",
+        "of per-layout means ± half-width of the 95% interval: for one policy a stratified bootstrap "
+        "(layouts, and episodes within each, resampled), for several training seeds each seed's own score, "
+        "then a Student-t interval over the seeds; IQM over the per-(seed, layout) means; success (the floor "
+        "cleaned) with its Wilson interval over distinct episodes, or over seeds as the scores; t90 reached: "
+        "the fraction of episodes that reached 90% coverage.",
         "",
         "| baseline | protocol | K | seeds | layouts | episodes | distinct | coverage | coverage IQM | "
         "path_efficiency | time (s) | success [Wilson] | t90 reached |",

@@ -2,8 +2,8 @@
 baseline, protocol, K) and, for a learned baseline, per training seed, then one row over all its
 training seeds; sorted. Per metric the mean and its 95% interval (:mod:`cabinbench.stats`: over
 distinct episodes only, so a deterministic baseline's repeated episode has no interval; success
-with a Wilson interval; across training seeds a stratified bootstrap), the interquartile mean of
-coverage, ``t90`` over the episodes that reached 90% with the fraction that did, the number of
+with a Wilson interval; across training seeds a t interval over the seeds' own values), the
+interquartile mean of coverage, ``t90`` over the episodes that reached 90% with the fraction that did, the number of
 episodes and of distinct ones, and the layout's navigation complexity (normalised and total). No
 timestamps: the same records give byte-identical files. The shipped policies' rows
 (:func:`group_rows`) are what every other report is drawn per.
@@ -181,6 +181,7 @@ def csv_table(rows: list[dict]) -> pd.DataFrame:
                     f"{metric}_mean": summary.mean,
                     f"{metric}_ci_low": summary.low,
                     f"{metric}_ci_high": summary.high,
+                    f"{metric}_n": summary.n,  # the units behind the interval: episodes, or seeds
                 }
             )
             if metric == "coverage":
@@ -242,9 +243,11 @@ def markdown(rows: list[dict], notes: list[str]) -> str:
         "layout's fixed start has a mean and no interval (`deterministic: n identical episodes`), and so "
         "has a lone episode. Within one policy the interval is a percentile bootstrap over its distinct "
         "episodes; a learned baseline has a row per training seed (`seed0 (shipped)` is the policy the "
-        "package ships) and an `all seeds` row: the mean over seeds of each seed's mean, with a "
-        "stratified bootstrap that resamples seeds and episodes within each seed. Success: the rate "
-        "with its Wilson interval `[low, high]` over the distinct episodes. IQM: interquartile mean of "
+        "package ships) and an `all seeds` row: the mean over seeds of each seed's own value, with a "
+        "Student-t interval over the seeds (n = seeds in `leaderboard.csv`; a bootstrap over three seeds "
+        "cannot reach beyond them). Score: the headline score (see above). Cleaned: the share of episodes "
+        "that cleaned the floor, with its Wilson interval `[low, high]` over the distinct episodes. "
+        "IQM: interquartile mean of "
         "coverage. t90: mean over the episodes that reached 90% coverage, [the fraction that did]. "
         "Complexity: the layout's navigation complexity (the study's §4.1), normalised / total. Definitions: "
         "`cabinbench/metrics.py` (metrics), `cabinbench/stats.py` (statistics).",
