@@ -74,6 +74,30 @@ GIF_FRAME_MS = 80
 DEFAULT_OUT = "runs"  # a working folder: results/runs is written by scripts/make_results.sh only
 
 
+def add_output_arguments(parser: ArgumentParser) -> None:
+    """What a run writes besides its summary: records, a render, an exported plan (each path checked
+    by its argument type before any episode runs)."""
+    parser.add_argument(
+        "--out",
+        type=output_folder,
+        default=DEFAULT_OUT,
+        help=f"folder for the records, created if need be (default {DEFAULT_OUT}/, a working folder)",
+    )
+    parser.add_argument(
+        "--render",
+        metavar="FILE",
+        type=output_file(".png", ".gif"),
+        help="draw the first episode to FILE.png or animate it to FILE.gif",
+    )
+    parser.add_argument(
+        "--export-path",
+        metavar="FILE",
+        type=output_file(".csv", ".yaml", ".geojson"),
+        help="with --layout: write the planner's plan of the first episode as CSV, nav_msgs/Path YAML or "
+        "GeoJSON (run it back with --baseline path)",
+    )
+
+
 def parse_args(argv: list[str] | None):
     parser = ArgumentParser(
         prog="python -m cabinbench.run",
@@ -117,25 +141,7 @@ def parse_args(argv: list[str] | None):
     parser.add_argument(
         "--config", type=json_object, default={}, metavar="JSON", help="baseline settings as a JSON object"
     )
-    parser.add_argument(
-        "--out",
-        type=output_folder,
-        default=DEFAULT_OUT,
-        help=f"folder for the records, created if need be (default {DEFAULT_OUT}/, a working folder)",
-    )
-    parser.add_argument(
-        "--render",
-        metavar="FILE",
-        type=output_file(".png", ".gif"),
-        help="draw the first episode to FILE.png or animate it to FILE.gif",
-    )
-    parser.add_argument(
-        "--export-path",
-        metavar="FILE",
-        type=output_file(".csv", ".yaml", ".geojson"),
-        help="with --layout: write the planner's plan of the first episode as CSV, nav_msgs/Path YAML or "
-        "GeoJSON (run it back with --baseline path)",
-    )
+    add_output_arguments(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the table")
     parser.add_argument(
         "--workers", type=positive_int, default=1, help="episodes played in parallel by a local process pool"
