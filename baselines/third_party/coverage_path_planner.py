@@ -5,7 +5,7 @@ project; ``pip install cabinbench[thirdparty]``), driven by the ``path`` baselin
     python -m cabinbench.run --baseline coverage_path_planner --suite classic --start fixed
 
 The planner is given the free area of the robot centre: ``layout.boundary`` moved in and each of
-``layout.obstacles`` moved out by the robot radius plus the contact clearance (mitred corners), in
+``layout.obstacles`` moved out by the robot radius plus the contact clearance (corners rounded), in
 metres, with ``distanceToBorder`` 0. (Given the walls themselves and that distance as
 ``distanceToBorder``, it keeps its lanes off the walls but joins them by A* through the walls'
 own corners, where the robot cannot be.) Its lanes are ``offset`` = the tool width (the robot's
@@ -30,6 +30,7 @@ from cabinbench.layouts.fields import CONTACT_CLEARANCE
 from cabinbench.layouts.model import Layout
 
 MIN_MITRE_COSINE = 0.3  # a corner sharper than about 145 degrees gets a capped mitre
+ARC_STEP = np.pi / 12  # radians between the points of a rounded corner
 PATTERNS = ("lines", "squares", "rings")  # the planner's patterns; "lines" is the boustrophedon
 
 
@@ -46,19 +47,29 @@ def import_planner():
 
 
 def offset_ring(ring: np.ndarray, distance: float, outward: bool) -> np.ndarray:
-    """``ring`` (an (N, 2) polygon) with every edge moved ``distance`` out (``outward``) or in, its
-    corners mitred (a spike's mitre capped at ``1 / MIN_MITRE_COSINE`` times the distance)."""
+    """``ring`` (an (N, 2) polygon) with every edge moved ``distance`` out (``outward``) or in: where
+    the moved edges part, an arc round the corner (every ``ARC_STEP`` rad), so a convex obstacle grows
+    to exactly the points within ``distance`` of it; where they cross, their mitre (a spike's capped at
+    ``1 / MIN_MITRE_COSINE`` times the distance)."""
     ring = np.asarray(ring, dtype=float)
     x, y = ring.T
     if np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) < 0:
         ring = ring[::-1]  # counter-clockwise: each edge's right-hand normal points out
     edges = np.roll(ring, -1, axis=0) - ring
-    normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1) / np.hypot(*edges.T)[:, None]
-    normals = normals if outward else -normals
-    bisectors = normals + np.roll(normals, 1, axis=0)  # of the edges leaving and reaching each corner
-    bisectors /= np.hypot(*bisectors.T)[:, None]
-    cosines = np.maximum(np.sum(bisectors * normals, axis=1), MIN_MITRE_COSINE)
-    return ring + bisectors * (distance / cosines)[:, None]
+    leaving = np.stack([edges[:, 1], -edges[:, 0]], axis=1) / np.hypot(*edges.T)[:, None]
+    leaving = leaving if outward else -leaving
+    reaching = np.roll(leaving, 1, axis=0)  # the normal of the edge that reaches each corner
+    points = []
+    for corner, edge_in, normal_in, normal_out in zip(ring, np.roll(edges, 1, axis=0), reaching, leaving):
+        if np.dot(normal_out - normal_in, edge_in) > 0:  # the moved edges part: round the corner
+            first, last = np.arctan2(normal_in[1], normal_in[0]), np.arctan2(normal_out[1], normal_out[0])
+            sweep = (last - first + np.pi) % (2 * np.pi) - np.pi
+            angles = first + sweep * np.linspace(0, 1, int(np.ceil(abs(sweep) / ARC_STEP)) + 1)
+            points += list(corner + distance * np.stack([np.cos(angles), np.sin(angles)], axis=1))
+        else:
+            bisector = (normal_in + normal_out) / np.hypot(*(normal_in + normal_out))
+            points.append(corner + bisector * distance / max(np.dot(bisector, normal_out), MIN_MITRE_COSINE))
+    return np.array(points)
 
 
 def third_party_plan(layout: Layout, start: tuple[float, float], angle: float, pattern: str) -> np.ndarray:
