@@ -82,8 +82,8 @@ def test_learned_baseline_is_scored_over_its_training_seeds(suite_board):
     cells = suite_table_row(board, "ppo")
     assert cells[3:6] == ["2", "3", "12"]
     assert cells[7].startswith(f"{per_seed.groupby(level=0).mean().mean():.3f}")
-    # Wilson interval on success, over the distinct episodes
-    assert cells[11].count("[") == 1 or cells[11] == "—"
+    # the floor cleaned: each seed's own rate, then a t interval over the two seeds
+    assert cells[12].count("[") == 1 or cells[12] == "—"
 
 
 def test_probability_of_improvement_and_profiles(suite_board):
@@ -103,16 +103,18 @@ def test_probability_of_improvement_and_profiles(suite_board):
         assert Image.open(out / "figures" / f"suite__{SUITE}__{name}.png").size[0] > 400
 
 
-def test_complexity_correlation_matches_scipy_on_the_per_layout_scores(suite_board):
+def test_complexity_is_not_tested_on_too_few_layouts(suite_board):
     out, records = suite_board
     board = (out / "leaderboard.md").read_text()
     rb = records[records["baseline"] == "random_bounce"]
     scores = rb.groupby("layout")["coverage"].mean()
     complexity = rb.groupby("layout")["layout_complexity"].first()
     rho = scipy_stats.spearmanr([complexity[layout]["total"] for layout in scores.index], scores).statistic
-    line = next(line for line in board.splitlines() if line.startswith("| random_bounce | coverage | 3 |"))
-    assert line.split("|")[4].strip() == f"{rho:.2f}"  # three layouts: ρ without an interval
-    assert "Finding: too few layouts" in board
+    assert -1 <= rho <= 1
+    # three layouts are too few for a test (a partial ρ needs four): every cell says so, and the finding
+    line = next(line for line in board.splitlines() if line.startswith("| random_bounce | coverage (-) |"))
+    assert [cell.strip() for cell in line.split("|")[3:8]] == ["—"] * 5
+    assert f"Finding ({SUITE}): too few layouts" in board
 
 
 def test_no_suite_records_no_suite_section(tmp_path):

@@ -31,7 +31,10 @@ from cabinbench.records import safe_name
 
 def suite_columns() -> list[tuple[str, str]]:
     """(key, title) of every column of a suite's board, in order."""
-    scores = [(metric, metric.replace("_", " ") + (" (s)" if metric == "time" else "")) for metric in SCORES]
+    titles = {"clean_score": "score", "time": "time (s)"}
+    scores = [
+        (metric, titles.get(metric, metric.replace("_", " "))) for metric in SCORES if metric != "coverage"
+    ]
     return [
         ("baseline", "baseline"),
         ("protocol", "protocol"),
@@ -41,10 +44,10 @@ def suite_columns() -> list[tuple[str, str]]:
         ("layouts", "layouts"),
         ("episodes", "episodes"),
         ("distinct", "distinct episodes"),
-        scores[0],
+        ("coverage", "coverage"),
         ("coverage_iqm", "coverage IQM"),
-        *scores[1:],
-        ("success", "success [Wilson]"),
+        *scores,
+        ("success", "cleaned"),
         ("t90_reached", "t90 reached"),
     ]
 

@@ -275,8 +275,8 @@ def _score_lines(rows: list[dict], episodes: pd.DataFrame) -> list[str]:
         "the fraction of episodes that reached 90% coverage.",
         "",
         "| baseline | protocol | K | seeds | layouts | episodes | distinct | coverage | coverage IQM | "
-        "path_efficiency | time (s) | success [Wilson] | t90 reached |",
-        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "score | path_efficiency | time (s) | cleaned | t90 reached |",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for row in rows:
         lines.append(

@@ -3,8 +3,9 @@ baseline, protocol, K) and, for a learned baseline, per training seed, then one 
 training seeds; sorted. Per metric the mean and its 95% interval (:mod:`cabinbench.stats`: over
 distinct episodes only, so a deterministic baseline's repeated episode has no interval; success
 with a Wilson interval; across training seeds a t interval over the seeds' own values), the
-interquartile mean of coverage, ``t90`` over the episodes that reached 90% with the fraction that did, the number of
-episodes and of distinct ones, and the layout's navigation complexity (normalised and total). No
+interquartile mean of coverage, ``t90`` over the episodes that reached 90% with the fraction
+that did, the number of episodes and of distinct ones, and the layout's navigation complexity
+(normalised and total). No
 timestamps: the same records give byte-identical files. The shipped policies' rows
 (:func:`group_rows`) are what every other report is drawn per.
 """
