@@ -33,7 +33,14 @@ def plan_layout(
     team from ``team_start`` (K, 2 or 3), where its robots stand (default: the team's start
     poses, :func:`~cabinbench.sim.world.start_poses`)."""
     if n_agents > 1:
-        return plan_team(layout, protocol, agent, n_agents, team_start)
+        try:
+            return plan_team(layout, protocol, agent, n_agents, team_start)
+        except ValueError:
+            if team_start is None:
+                raise
+            # Drawn starts can leave a share's sweep no route from where its robot stands: the team then
+            # plans from its start poses, as from the fixed start, and each robot drives there first.
+            return plan_team(layout, protocol, agent, n_agents, None)
     start = start_poses(layout, 1)[0, :2] if start is None else np.asarray(start, dtype=float)[:2]
     drivable = layout.centre_free  # already keeps the disc 1 cm off every wall
     if protocol == "open":
