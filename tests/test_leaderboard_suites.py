@@ -136,7 +136,7 @@ def test_no_suite_records_no_suite_section(tmp_path):
     )
     assert leaderboard.main(["--runs", str(runs), "--out", str(tmp_path / "out")]) == 0
     board = (tmp_path / "out" / "leaderboard.md").read_text()
-    assert "Suites" not in board and not list((tmp_path / "out" / "figures").glob("suite__*"))
+    assert "### Suites" not in board and not list((tmp_path / "out" / "figures").glob("suite__*"))
 
 
 def test_generalisation_gap_is_generated_from_the_records_of_every_training_seed(tmp_path):
