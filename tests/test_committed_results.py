@@ -17,6 +17,7 @@ def test_committed_leaderboard_and_paper_match_the_records(tmp_path, monkeypatch
     for name in (
         "leaderboard.md",
         "leaderboard.csv",
+        "headline.csv",
         "uncovered.md",
         "uncovered.csv",
         "ablation.md",
