@@ -68,3 +68,9 @@ def test_every_committed_figure_is_readable_at_its_natural_size():
     for path in sorted((ROOT / "results" / "figures").glob("*.png")):
         with Image.open(path) as image:
             assert image.width <= 3000, f"{path.name} is {image.width} px wide: split it"
+
+
+def test_the_packaged_citation_is_the_repositorys():
+    """The site of an installed cabinbench cites the copy the package ships: it must not drift."""
+    packaged = ROOT / "cabinbench" / "leaderboard" / "site_files" / "CITATION.cff"
+    assert packaged.read_bytes() == (ROOT / "CITATION.cff").read_bytes()

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import sys
 from dataclasses import dataclass
+from importlib.resources import files
 from pathlib import Path
 
 import pandas as pd
@@ -58,7 +59,12 @@ from cabinbench.leaderboard.figures import training_figures, write_figures
 from cabinbench.leaderboard.headline import headline_csv, headline_html, headline_rows, headline_section
 from cabinbench.leaderboard.site import Entry, build_site
 from cabinbench.leaderboard.submissions import add, filed, status, verify
-from cabinbench.leaderboard.suites import classic, suite_records, suites_csv, suites_section
+from cabinbench.leaderboard.suites import (
+    classic,
+    suite_records,
+    suites_csv,
+    suites_section,
+)
 from cabinbench.leaderboard.table import (
     csv_table,
     document_header,
@@ -202,13 +208,13 @@ def read_inputs(args) -> Inputs:
 
 
 def citation_file() -> Path:
-    """``CITATION.cff`` of the working folder, else of the source checkout this package runs from."""
-    for folder in (Path.cwd(), Path(__file__).resolve().parents[2]):
-        if (folder / "CITATION.cff").is_file():
-            return folder / "CITATION.cff"
-    raise UsageError(
-        "--site: no CITATION.cff in the working folder, and this cabinbench is not a source checkout; "
-        "run it in a folder that holds the repository's CITATION.cff"
+    """``CITATION.cff`` of the working folder, else the copy the package ships (the repository's, which
+    a test keeps identical), so that an installed cabinbench builds the site from any folder."""
+    here = Path.cwd() / "CITATION.cff"
+    return (
+        here
+        if here.is_file()
+        else Path(str(files("cabinbench.leaderboard").joinpath("site_files", "CITATION.cff")))
     )
 
 
@@ -217,8 +223,6 @@ def write_site(args, inputs: Inputs, citation: Path) -> int:
     command = f"python -m cabinbench.leaderboard --runs {args.runs} --out {out} --site DIR"
     entries = [Entry(row, episodes) for row, episodes in inputs.own] + inputs.submitted
     suites = suite_records(inputs.every)
-    if not suites.empty:  # the classic suite's records are the index's rows
-        suites = suites[suites["suite"] != "classic"]
     headline = headline_html(headline_rows(inputs.every, Path(args.training)))
     pages = build_site(
         args.site, entries, suites, out / "figures", Path(args.training), citation, command, headline
