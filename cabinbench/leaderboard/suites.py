@@ -64,18 +64,25 @@ GAP_SPLITS = {"train": "cabin-v1-train", "test": "cabin-v1-test", "ood": "cabin-
 GAP_METRIC = "coverage"
 
 
+def from_random_starts(records: pd.DataFrame) -> pd.Series:
+    """Which records started from a pose drawn from the episode's seed (``env_config.random_start``)."""
+    return records["env_config"].map(lambda config: bool((config or {}).get("random_start")))
+
+
 def classic(records: pd.DataFrame) -> pd.DataFrame:
-    """The records of the classic table: outside any suite, or in the ``classic`` suite."""
+    """The records of the named layouts' table: from each layout's own start, outside any suite or
+    in the ``classic`` suite (the classic suite's random-start runs are a suite of their own)."""
     if "suite" not in records.columns:
         return records
-    return records[records["suite"].isna() | (records["suite"] == "classic")]
+    return records[records["suite"].isna() | ((records["suite"] == "classic") & ~from_random_starts(records))]
 
 
 def suite_records(records: pd.DataFrame) -> pd.DataFrame:
-    """The records run in a suite (``classic`` included)."""
+    """The records run in a suite (the ``classic`` suite's from random starts: its fixed-start ones
+    are the named layouts' rows)."""
     if "suite" not in records.columns:
         return records.iloc[0:0]
-    return records[records["suite"].notna()]
+    return records[records["suite"].notna() & ~records.index.isin(classic(records).index)]
 
 
 def episode_value(episodes: pd.DataFrame, metric: str) -> pd.Series:
