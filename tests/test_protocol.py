@@ -24,7 +24,7 @@ def test_reaching_every_goal_clears_the_cell_and_ends_the_episode():
     info, terminated = drive(env, goal_tour(env.layout, 0))
     assert terminated
     record = env.episode_record
-    assert record["success"] and record["cells_cleared"] == 1 and record["bound_violations"] == 0
+    assert record["goals_reached"] and record["cells_cleared"] == 1 and record["bound_violations"] == 0
 
 
 def test_bounds_block_the_aisle_and_count_violations():
