@@ -3,7 +3,7 @@
 A baseline drives one robot through the env's actions, never by moving it directly:
 
     baseline.reset(context, observation, info)   # start of an episode
-    action = baseline.act(observation, info)     # every step, in [-1, 1]^2
+    action = baseline.act(observation, info)     # every step, float32 in [-1, 1]^2
 
 Controllers (``random_bounce``, learned policies) act from the observation. Planners
 (``boustrophedon``) plan from ``context.layout`` in ``reset`` and then follow their plan using
@@ -24,6 +24,7 @@ trainer in ``trainer`` (run by ``python -m cabinbench.train``).
 
 from __future__ import annotations
 
+import functools
 import importlib
 from dataclasses import dataclass, field
 from importlib.metadata import entry_points
@@ -54,12 +55,25 @@ class EpisodeContext:
 
 
 class Baseline:
-    """Base class; subclasses set ``name`` and override ``reset`` and ``act``."""
+    """Base class; subclasses set ``name`` and override ``reset`` and ``act``.
+
+    A subclass's ``act`` returns float32, the dtype of the env's action space (a client such as Minari
+    records it and checks it with ``action_space.contains``), whatever its body computes in. The
+    benchmark steps the env with the action before that cast (:func:`exact_action`): every record was
+    played so, and float32 rounding would change them (it moves a planner's robot by 1e-8 m within a
+    few steps, a team's by a millimetre, and a stochastic policy's whole episode). A baseline that acts
+    through another's ``act`` calls ``exact_action(other, ...)`` instead, to keep the exact value.
+    """
 
     name = "baseline"
     trainer: ClassVar[str | None] = None
     """``package.module:function`` taking the ``train`` command's arguments (a list of strings) and returning
     its exit status; None for a baseline that does not learn."""
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if "act" in vars(cls):
+            cls.act = _float32_act(vars(cls)["act"])
 
     def __init__(self, **config):
         self.config = config
@@ -75,6 +89,25 @@ class Baseline:
 
     def act(self, observation: np.ndarray, info: dict) -> np.ndarray:
         raise NotImplementedError
+
+
+def _float32_act(act):
+    """``act`` with its action cast to float32; ``act`` itself stays reachable as ``exact``."""
+
+    @functools.wraps(act)
+    def float32_act(self, observation: np.ndarray, info: dict) -> np.ndarray:
+        return np.asarray(act(self, observation, info), dtype=np.float32)
+
+    float32_act.exact = act
+    return float32_act
+
+
+def exact_action(baseline, observation: np.ndarray, info: dict) -> np.ndarray:
+    """``baseline``'s action for this step before ``act`` casts it to float32 (see :class:`Baseline`); what
+    ``act`` returns where no cast wraps it (a class that only has ``reset`` and ``act``)."""
+    act = baseline.act
+    exact = getattr(act, "exact", None)
+    return exact(baseline, observation, info) if exact else act(observation, info)
 
 
 def registered_baselines() -> dict[str, str]:

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cabinbench.agents import EpisodeContext, load_baseline
+from cabinbench.agents import EpisodeContext, exact_action, load_baseline
 from cabinbench.envs.team_env import TeamCoverageEnv
 from cabinbench.executors.base import Executor, JobFailure
 from cabinbench.executors.local import LocalExecutor
@@ -111,9 +111,10 @@ def run_episode(
     frames = [draw_frame(world)] if frame_every else None
     steps = 0
     while env.agents:
-        # Robots of a team all leave ``env.agents`` together, on the last step.
+        # Robots of a team all leave ``env.agents`` together, on the last step. The exact actions, as
+        # every record was played (agents.Baseline says why not act's float32).
         actions = {
-            agent: baseline.act(observations[agent], infos[agent])
+            agent: exact_action(baseline, observations[agent], infos[agent])
             for agent, baseline in zip(agents, baselines)
         }
         observations, _, _, _, infos = env.step(actions)

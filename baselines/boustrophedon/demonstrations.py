@@ -13,7 +13,7 @@ import json
 import numpy as np
 from cabinbench.baselines.boustrophedon.baseline import Boustrophedon
 
-from cabinbench.agents import EpisodeContext
+from cabinbench.agents import EpisodeContext, exact_action
 
 
 def record_demonstrations(
@@ -66,7 +66,7 @@ def record_demonstrations(
         while env.agents:
             executed = {}
             for agent, planner in planners.items():
-                action = np.clip(planner.act(observation[agent], info[agent]), -1, 1)
+                action = np.clip(exact_action(planner, observation[agent], info[agent]), -1, 1)
                 observations.append(observation[agent])
                 actions.append(action)
                 episode_of.append(episode)

@@ -48,7 +48,7 @@ import numpy as np
 import torch
 import torch.nn as nn
 
-from cabinbench.agents import Baseline, EpisodeContext
+from cabinbench.agents import Baseline, EpisodeContext, exact_action
 
 FORMAT = "cabinbench-policy/1"
 CHECKPOINT_DIR = Path(__file__).resolve().parent / "checkpoints"
@@ -434,7 +434,7 @@ class PPOGailStudy(Baseline):
 
     def act(self, observation: np.ndarray, info: dict) -> np.ndarray:
         self.stage = tracking_or_cleaning(self.context, info)
-        return self.networks[self.stage].act(observation, info)
+        return exact_action(self.networks[self.stage], observation, info)  # this act casts it to float32
 
 
 @contextlib.contextmanager
