@@ -3,16 +3,24 @@
     export_onnx("runs/train/ppo_gail__seed0/policy.pt", "policy.onnx")
 
 The actor of a ``cabinbench-policy/1`` file (:mod:`cabinbench.baselines.ppo_gail.policy`: observation
-normaliser + MLP) is exported with ``torch.onnx.export`` as ``observation [batch, D] float32 ->
-action_mean [batch, A]``, and the file's observation settings, action std, ablation, env config and
-training summary go into the model's ``metadata_props`` (see :mod:`.policy`), so that the ``onnx``
-baseline runs it as the torch policy runs, without torch.
+normaliser + MLP) is exported with ``torch.onnx.export`` as ``observation [batch, D] float32 -> action_mean
+[batch, A]``, and the file's observation settings, action std (and whether its baseline samples with it by
+default), ablation, env config and training summary go into the model's ``metadata_props`` (see
+:mod:`.policy`), so that the ``onnx`` baseline runs it as the torch policy runs, without torch.
+
+``train`` writes every run's twin beside its policy file (:func:`export_twin`). A recurrent actor
+(``ppo_lstm``) has none: the ``onnx`` baseline runs memoryless policies, one observation to one action.
 """
 
 from __future__ import annotations
 
+import contextlib
+import inspect
 import json
+import logging
 import os
+import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 from cabinbench.baselines.onnx.policy import FORMAT
@@ -28,9 +36,22 @@ def policy_metadata(policy: dict, source: str) -> dict[str, str]:
         "source": source,
         "observation_config": json.dumps(policy["observation_config"]),
         "action_std": json.dumps(policy["action_std"].tolist()),
+        "stochastic": json.dumps(sampled_by_default(policy["ablation"])),
         "env_config": json.dumps(policy.get("env_config", {})),
         "training": json.dumps(policy.get("training", {})),
     }
+
+
+def sampled_by_default(ablation: str) -> bool:
+    """Whether the torch baseline of ``ablation`` samples its actions unless told otherwise: ``ppo_gail``'s
+    family does, ``bc`` and ``dagger`` take the mean action. Its twin does as it does."""
+    from cabinbench.agents import baseline_class
+
+    return inspect.signature(baseline_class(ablation)).parameters["stochastic"].default
+
+
+class NoOnnxTwin(ValueError):
+    """A policy file the ``onnx`` baseline could not run as its twin: a recurrent actor's memory."""
 
 
 def export_onnx(policy_file: str | os.PathLike, onnx_file: str | os.PathLike) -> Path:
@@ -41,19 +62,56 @@ def export_onnx(policy_file: str | os.PathLike, onnx_file: str | os.PathLike) ->
     from cabinbench.baselines.ppo_gail.policy import read_policy_file
 
     policy = read_policy_file(policy_file)
+    if policy.get("memory"):
+        raise NoOnnxTwin(
+            f"{policy_file}: a recurrent policy ({policy['ablation']}) carries its memory from step to step; "
+            "the onnx baseline runs memoryless policies"
+        )
     network = policy["network"]
     example = torch.zeros(1, policy["actor"]["observation_size"])
-    program = torch.onnx.export(
-        network,
-        (example,),
-        input_names=[INPUT],
-        output_names=[OUTPUT],
-        dynamic_shapes=({0: torch.export.Dim("batch")},),
-        dynamo=True,
-        verbose=False,
-    )
+    with quiet_exporter():
+        program = torch.onnx.export(
+            network,
+            (example,),
+            input_names=[INPUT],
+            output_names=[OUTPUT],
+            dynamic_shapes=({0: torch.export.Dim("batch")},),
+            dynamo=True,
+            verbose=False,
+        )
     model = program.model_proto
     onnx.helper.set_model_props(model, policy_metadata(policy, Path(policy_file).name))
     onnx.checker.check_model(model)
     onnx.save(model, onnx_file)
     return Path(onnx_file)
+
+
+@contextlib.contextmanager
+def quiet_exporter() -> Iterator[None]:
+    """torch's exporter without its notes on what does not concern a policy (torchvision's operators not
+    installed, torch's own deprecations), which would bury ``train``'s last lines."""
+    exporter = logging.getLogger("torch.onnx")
+    level = exporter.level
+    exporter.setLevel(logging.ERROR)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", FutureWarning)
+            yield
+    finally:
+        exporter.setLevel(level)
+
+
+def export_twin(policy_file: str | os.PathLike) -> str:
+    """Write the ONNX twin of a trained ``policy.pt`` beside it as ``policy.onnx`` (``--ship`` and ``--keep``
+    copy it with the policy); what was done, in a line. A policy without a twin leaves none there."""
+    twin = Path(policy_file).with_suffix(".onnx")
+    try:
+        return f"{export_onnx(policy_file, twin)} (run it with --baseline onnx)"
+    except NoOnnxTwin as error:
+        twin.unlink(missing_ok=True)  # a twin of an earlier export would not be this policy's
+        return f"none: {error}"
+    except (
+        ModuleNotFoundError
+    ) as error:  # onnxscript and onnx come with rsl-rl; a trimmed install may lack them
+        twin.unlink(missing_ok=True)
+        return f"none: writing it needs {error.name}: pip install onnx onnxscript"

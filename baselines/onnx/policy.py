@@ -14,6 +14,8 @@ a torch policy file) is used as the torch policy uses it:
     action_std          JSON list: the Gaussian policy's std; with ``stochastic`` the action is
                         mean + std * noise from a generator seeded by the episode seed and the
                         robot's index, then clipped, as ``ppo_gail``'s torch policies act
+    stochastic          JSON true or false: whether its torch baseline samples by default (``bc``
+                        and ``dagger`` take the mean action); the default of ``stochastic`` here
     ablation, source, env_config, training   where it came from (informational)
 
 A model from elsewhere without them runs in the env it is given, on observations as wide as its
@@ -108,7 +110,8 @@ def mismatched_settings(trained: dict, env: dict) -> list[str]:
 
 class OnnxPolicy(Baseline):
     """Config: ``file`` (an ONNX policy) and ``stochastic`` (sample around the mean with the file's
-    ``action_std``; default: when the file holds one; false: the mean action)."""
+    ``action_std``; default: as its metadata's ``stochastic`` says, else when the file holds an
+    ``action_std``; false: the mean action)."""
 
     name = "onnx"
 
@@ -123,7 +126,8 @@ class OnnxPolicy(Baseline):
             raise BaselineError(
                 f"{self.path}: no action_std in its metadata to sample with; use stochastic false"
             )
-        self.stochastic = has_std if stochastic is None else stochastic
+        default = self.model.metadata.get("stochastic", has_std)
+        self.stochastic = default if stochastic is None else stochastic
         self.rng: np.random.Generator | None = None
 
     @property

@@ -35,18 +35,19 @@ suite instead, through ``CabinBench/Suite-v0``: every env draws a new layout of 
 expert demonstrates on ``--demo-layouts`` of its layouts, validation plays one episode on each of
 ``--validation-episodes`` of them, and the policy ships as ``<baseline>_suite`` (``ppo_gail_suite``). The run
 lives in ``--run-dir`` (default ``runs/train/<baseline>__seed<S>``): config, demonstrations, checkpoints,
-``metrics.csv``, ``curves.png`` and the exported ``policy.pt``. ``--resume`` continues an interrupted run from
-its latest checkpoint, with the saved config (``--iterations`` may raise the total). At the end every
-checkpoint's policy plays ``--validation-episodes`` episodes (default 20) on each training layout
-(``validation.csv`` in the run directory); ``--export best`` exports the checkpoint that did best there
+``metrics.csv``, ``curves.png``, the exported ``policy.pt`` and its ONNX twin ``policy.onnx`` for the ``onnx``
+baseline (every trainer's but ``ppo_lstm``'s: its memory is no part of a twin). ``--resume`` continues an
+interrupted run from its latest checkpoint, with the saved config (``--iterations`` may raise the total). At
+the end every checkpoint's policy plays ``--validation-episodes`` episodes (default 20) on each training
+layout (``validation.csv`` in the run directory); ``--export best`` exports the checkpoint that did best there
 instead of the last (see ``TrainConfig.export`` for why the last is the default). ``--ship`` copies the
-exported policy to ``<ship-dir>/<baseline>.pt`` (``--ship-dir``, default the repository's
-``baselines/ppo_gail/checkpoints``: run it from the repository root), where ``python -m cabinbench.run
---baseline <baseline>`` finds it, and the run's ``config.json``, ``metrics.csv`` and ``validation.csv`` to
-``results/training/<baseline>/``, from which ``python -m cabinbench.leaderboard`` draws the committed training
-curves. ``--keep`` copies the policy, ``config.json``, ``metrics.csv`` and ``validation.csv`` to
-``results/training/<baseline>/seed<S>/``: a further training run of the same command, which
-``scripts/make_results.sh`` scores into ``results/ablation.md``.
+exported policy to ``<ship-dir>/<baseline>.pt`` and its twin to ``<baseline>.onnx`` (``--ship-dir``, default
+the repository's ``baselines/ppo_gail/checkpoints``: run it from the repository root), where ``python -m
+cabinbench.run --baseline <baseline>`` finds it, and the run's ``config.json``, ``metrics.csv`` and
+``validation.csv`` to ``results/training/<baseline>/``, from which ``python -m cabinbench.leaderboard`` draws
+the committed training curves. ``--keep`` copies the policy, its twin, ``config.json``, ``metrics.csv`` and
+``validation.csv`` to ``results/training/<baseline>/seed<S>/``: a further training run of the same command,
+which ``scripts/make_results.sh`` scores into ``results/ablation.md``.
 
 ``--seeds S ...`` trains one run per seed at once, each exactly as ``--seed S`` would, in its own run
 directory ``<name>__seed<S>`` in the folder ``--run-dir`` (default ``runs/train``), one CPU each
@@ -78,6 +79,7 @@ import sys
 from dataclasses import dataclass, fields
 from pathlib import Path
 
+from cabinbench.baselines.onnx.export import export_twin
 from cabinbench.baselines.ppo_gail.options import add_options, flag, option, option_fields
 from cabinbench.baselines.ppo_gail.study import STAGES
 from cabinbench.baselines.ppo_gail.trainers import TRAINERS, Trainer, keep
@@ -270,6 +272,7 @@ def train_checked(args: argparse.Namespace, trainer: Trainer, config: TrainConfi
     )
     if config.validation_episodes:
         print(f"validation of every checkpoint: {result.run_dir / 'validation.csv'}")
+    print(f"onnx twin: {export_twin(result.policy_path)}")  # every trainer's policy passes here
     if args.ship:
         print(trainer.ship(result, name, args.ship_dir, config))
     if args.keep:

@@ -62,7 +62,7 @@ class Trainer:
         """Copy the exported policy to ``ship_dir/<name>.pt`` and the run's records to
         ``results/training/<name>/``, from which the leaderboard draws the training curves; what was done."""
         shipped = ship_dir / f"{name}.pt"
-        copy_file(result.policy_path, shipped)
+        copy_policy(result.policy_path, shipped)
         records = TRAINING_RECORDS / name
         for record in training_records(config):
             copy_file(result.run_dir / record, records / record)
@@ -96,7 +96,7 @@ class StudyTrainer(Trainer):
         """The policy, its ``config.json`` and its training summary (steps, time, final metrics: how far it
         trained) side by side in ``ship_dir``: the study's networks are no ablation of the leaderboard's."""
         shipped = ship_dir / f"{name}.pt"
-        copy_file(result.policy_path, shipped)
+        copy_policy(result.policy_path, shipped)
         copy_file(result.run_dir / CONFIG_FILE, ship_dir / f"{name}.config.json")
         reached = ship_dir / f"{name}.training.json"
         reached.write_text(json.dumps(result.summary, indent=2) + "\n")
@@ -156,7 +156,8 @@ def keep(result: TrainResult, name: str, config: TrainConfig) -> Path:
     """Copy the policy and the run's records to ``results/training/<name>/seed<S>/``: a further run of the
     same command, which ``scripts/make_results.sh`` scores into ``results/ablation.md``."""
     kept = TRAINING_RECORDS / name / f"seed{config.seed}"
-    for record in (POLICY_FILE, *training_records(config)):
+    copy_policy(result.policy_path, kept / POLICY_FILE)
+    for record in training_records(config):
         copy_file(result.run_dir / record, kept / record)
     return kept
 
@@ -164,6 +165,14 @@ def keep(result: TrainResult, name: str, config: TrainConfig) -> Path:
 def training_records(config: TrainConfig) -> tuple[str, ...]:
     """The files of a run that ``--ship`` and ``--keep`` keep beside its policy."""
     return (CONFIG_FILE, METRICS_FILE, *((VALIDATION_FILE,) if config.validation_episodes else ()))
+
+
+def copy_policy(policy: Path, target: Path) -> None:
+    """Copy a policy file and, where training wrote one, its ONNX twin beside it (``policy.onnx``)."""
+    copy_file(policy, target)
+    twin = policy.with_suffix(".onnx")
+    if twin.exists():
+        copy_file(twin, target.with_suffix(".onnx"))
 
 
 def copy_file(source: Path, target: Path) -> None:
