@@ -14,12 +14,14 @@ only, and byte-identical from the same records (no timestamps, sorted everything
   sortable and filterable the same way; the suite's complexity range, its three figures (copied
   from the leaderboard's ``figures/``) and the complexity finding. No page per suite layout;
 - ``layouts/<layout>.html``: the layout's picture and complexity map, and per row its trajectory
-  figure (copied from the leaderboard's ``figures/``) and a replay of the stored trajectory;
+  figure (copied from the leaderboard's ``figures/``) and a replay of the stored trajectory (a layout
+  whose file is not found here: the rows and a note saying how to find it);
 - ``baselines/<baseline>.html``: what it is (its docstring, read without importing it), its
   entry point, configs, the versions and commits its records came from, its training curves.
 
 Submissions (:mod:`cabinbench.leaderboard.submissions`) are rows like the others, marked with their status.
-Images live once, in ``images/``. This module writes the site; the pages are made by
+Images live once, in ``images/``. A name that a file name cannot hold (``my/cabin``, ``pkg.mod:Class``)
+is written as its safe form and a short hash of it (``site_html.file_stem``): every name keeps its page. This module writes the site; the pages are made by
 :mod:`~cabinbench.leaderboard.site_pages` (index, layouts, baselines) and
 :mod:`~cabinbench.leaderboard.site_suites` (suites), from the board rows of
 :mod:`~cabinbench.leaderboard.site_board`, the HTML pieces of :mod:`~cabinbench.leaderboard.site_html`

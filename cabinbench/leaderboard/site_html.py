@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import html
 from importlib.resources import files
 from string import Template
@@ -26,12 +27,22 @@ def page(title: str, body: str, root: str, nav: str, command: str) -> str:
     )
 
 
+def file_stem(name: str) -> str:
+    """``name`` in a file name of the site: itself where it is one, else its safe form and a short hash of
+    it, so that names differing only in the characters replaced (``my/cabin``, ``my-cabin``, ``my:cabin``)
+    keep pages of their own."""
+    safe = safe_name(name)
+    if safe == name:
+        return name
+    return f"{safe}-{hashlib.sha256(name.encode('utf-8', 'surrogatepass')).hexdigest()[:8]}"
+
+
 def layout_page_name(layout: str) -> str:
-    return f"layouts/{safe_name(layout)}.html"
+    return f"layouts/{file_stem(layout)}.html"
 
 
 def baseline_page_name(baseline: str) -> str:
-    return f"baselines/{safe_name(baseline)}.html"
+    return f"baselines/{file_stem(baseline)}.html"
 
 
 def code(text: str) -> str:

@@ -15,12 +15,14 @@ import pandas as pd
 from PIL import Image
 
 from cabinbench.agents import registered_baselines
+from cabinbench.errors import LayoutError
 from cabinbench.layouts.complexity import layout_complexity, save_complexity_png
 from cabinbench.layouts.fields import RESOLUTION
 from cabinbench.layouts.load import available_layouts
+from cabinbench.layouts.model import Layout
 from cabinbench.layouts.resolve import load_layout
 from cabinbench.leaderboard.site_board import Entry, board_table
-from cabinbench.leaderboard.site_html import code, escape, figure_html, layout_page_name, page
+from cabinbench.leaderboard.site_html import code, escape, figure_html, file_stem, layout_page_name, page
 from cabinbench.leaderboard.table import stored_run
 from cabinbench.records import safe_name
 from cabinbench.sim.render import draw_frame, frame_scale
@@ -119,33 +121,65 @@ def replay_data(entry: Entry, layout, scale: int) -> dict | None:
     }
 
 
-def layout_page(name: str, entries: list[Entry], figures: Path, out: Path, command: str, nav: str) -> str:
-    layout = load_layout(available_layouts().get(name, name))
+def layout_here(name: str) -> Layout | None:
+    """The layout the records call ``name``, as this machine has it; None where no file of that name is
+    found (the run read a file outside CABINBENCH_LAYOUT_PATH, or one whose ``name`` is not its file's)."""
+    try:
+        return load_layout(available_layouts().get(name, name))
+    except (OSError, LayoutError):
+        return None
+
+
+def layout_figures(name: str, layout: Layout, entries: list[Entry], out: Path) -> tuple[list[str], str, int]:
+    """The layout's picture and complexity map, drawn into ``out/images``: (their HTML, after a note where
+    the records were made with another version of the file; the picture's path; the replays' scale)."""
     world = World(layout)
     world.reset(np.random.default_rng(0))  # the start pose is fixed; the generator is unused
-    picture = f"images/layout__{safe_name(name)}.png"
+    picture = f"images/layout__{file_stem(name)}.png"
     scale = frame_scale(world)
     Image.fromarray(draw_frame(world, scale=scale)).save(out / picture)
-    complexity = f"images/complexity__{safe_name(name)}.png"
+    complexity = f"images/complexity__{file_stem(name)}.png"
     save_complexity_png(layout_complexity(layout), str(out / complexity), title=name)
     hashes = {hash_ for entry in entries for hash_ in entry.episodes["layout_hash"]}
     stale = (
         f'<p class="note">The records were made with layout file(s) {", ".join(sorted(hashes))}; the file '
-        "shipped now "
-        f"is {layout.content_hash}.</p>"
+        f"shipped now is {layout.content_hash}.</p>"
         if hashes != {layout.content_hash}
         else ""
     )
-    body = [
-        f"<h1>{escape(name)}</h1>",
+    html = [
         stale,
         figure_html(f"../{picture}", f"layout {name}", "the layout (start pose, cells, goals)"),
         figure_html(
             f"../{complexity}", f"complexity of {name}", "navigation complexity per robot-sized cell"
         ),
+    ]
+    return html, picture, scale
+
+
+def layout_page(name: str, entries: list[Entry], figures: Path, out: Path, command: str, nav: str) -> str:
+    layout = layout_here(name)
+    if layout is None:
+        fix = (
+            f"put its file, {escape(name)}.yaml, in a folder on CABINBENCH_LAYOUT_PATH and build the site "
+            "again"
+            if safe_name(name) == name
+            else "a file cannot be named so: rename the layout "
+            f"(<code>name: {escape(safe_name(name))}</code>) and run it again"
+        )
+        shown = [
+            '<p class="note">No layout file of this name is found here, so the page has no picture, '
+            f"complexity map or replay: {fix}.</p>"
+        ]
+    else:
+        shown, picture, scale = layout_figures(name, layout, entries, out)
+    body = [
+        f"<h1>{escape(name)}</h1>",
+        *shown,
         "<h2>Rows</h2>",
         board_table(entries, "../"),
-        "<h2>Trajectories</h2><p>The first episode of each row (lowest seed). Click a replay to play it.</p>",
+        "<h2>Trajectories</h2><p>The first episode of each row (lowest seed)"
+        + (". Click a replay to play it.</p>" if layout is not None else ".</p>"),
     ]
     for index, entry in enumerate(entries):
         caption = (
@@ -156,7 +190,7 @@ def layout_page(name: str, entries: list[Entry], figures: Path, out: Path, comma
             target = f"images/{figure.name}"
             shutil.copyfile(figure, out / target)
             body.append(figure_html(f"../{target}", "trajectory", caption))
-        data = replay_data(entry, layout, scale)
+        data = replay_data(entry, layout, scale) if layout is not None else None
         if data is not None:
             body.append(
                 f'<figure><canvas data-replay="replay{index}" data-picture="../{picture}"></canvas>'
