@@ -21,7 +21,8 @@ only, and byte-identical from the same records (no timestamps, sorted everything
 
 Submissions (:mod:`cabinbench.leaderboard.submissions`) are rows like the others, marked with their status.
 Images live once, in ``images/``. A name that a file name cannot hold (``my/cabin``, ``pkg.mod:Class``)
-is written as its safe form and a short hash of it (``site_html.file_stem``): every name keeps its page. This module writes the site; the pages are made by
+is written as its safe form and a short hash of it (``site_html.file_stem``): every name keeps its page.
+This module writes the site; the pages are made by
 :mod:`~cabinbench.leaderboard.site_pages` (index, layouts, baselines) and
 :mod:`~cabinbench.leaderboard.site_suites` (suites), from the board rows of
 :mod:`~cabinbench.leaderboard.site_board`, the HTML pieces of :mod:`~cabinbench.leaderboard.site_html`
