@@ -7,12 +7,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
 import torch
 import torch.nn as nn
 from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR, write_policy_file
 
+import cabinbench
 from cabinbench.agents import EpisodeContext, load_baseline, registered_baselines
 from cabinbench.envs.settings import observation_config
 from cabinbench.episodes import make_env, run_episode
@@ -116,3 +118,56 @@ def test_run_plays_the_exact_actions_its_committed_records_were_played_with(base
     )
     for name in ("coverage", "path_length", "rotation", "steps", "collisions"):
         assert replayed[name] == record[name], name
+
+
+def context_of(env, seed: int, agent: int = 0, n_agents: int = 1, team_start=None) -> EpisodeContext:
+    core = env.unwrapped  # every env here plays the default protocol
+    return EpisodeContext(
+        core.layout, "sequential", seed, agent, n_agents, {}, core.observation_layout, team_start
+    )
+
+
+@pytest.mark.parametrize(
+    ("env_id", "baseline", "settings"),
+    [
+        ("CabinBench/ShapeChanged-v0", "boustrophedon", {}),  # clears both cells, then succeeds
+        ("CabinBench/A320Cell-v0", "random_bounce", {"max_steps": 300}),  # bumps into seats
+        ("CabinBench/Suite-v0", "boustrophedon", {"suite": "cabin-v1-test"}),
+    ],
+)
+def test_a_whole_episode_keeps_the_reset_info_keys_and_float32_actions_in_the_space(
+    env_id, baseline, settings
+):
+    """What Minari's record_infos and ``action_space.contains`` check at every step of a dataset, through
+    the events of an episode (contacts, cells cleared, success) to its last step."""
+    env = gym.make(env_id, **settings)
+    observation, info = env.reset(seed=1)
+    keys, player = set(info), load_baseline(baseline)
+    player.reset(context_of(env, 1), observation, info)
+    over, steps = False, 0
+    while not over:
+        action = player.act(observation, info)
+        assert action.dtype == np.float32 and env.action_space.contains(action)
+        observation, _, terminated, truncated, info = env.step(action)
+        over, steps = terminated or truncated, steps + 1
+        assert set(info) == keys and all(
+            isinstance(value, (np.generic, np.ndarray)) for value in info.values()
+        )
+    record = env.unwrapped.episode_record
+    assert record["steps"] == steps and (record["success"] or record["collisions"] > 0)
+
+
+def test_a_whole_team_episode_keeps_the_reset_info_keys_and_float32_actions_in_the_space():
+    env = cabinbench.parallel_env(layout="a320_cell", n_agents=2)
+    observations, infos = env.reset(seed=0)
+    keys = {agent: set(info) for agent, info in infos.items()}
+    start = np.array([infos[agent]["pose"] for agent in env.agents])
+    players = {agent: load_baseline("boustrophedon") for agent in env.agents}
+    for seat, (agent, player) in enumerate(players.items()):
+        player.reset(context_of(env, 0, seat, 2, start), observations[agent], infos[agent])
+    while env.agents:
+        actions = {agent: player.act(observations[agent], infos[agent]) for agent, player in players.items()}
+        assert all(env.action_space(agent).contains(action) for agent, action in actions.items())
+        observations, _, _, _, infos = env.step(actions)
+        assert {agent: set(info) for agent, info in infos.items()} == keys
+    assert env.unwrapped.episode_record["success"]
