@@ -232,7 +232,8 @@ def index_page(
         "one). Policy: a learned baseline's training seed, a row each and one over all seeds. "
         "Complexity: the layout's normalised navigation complexity (the study §4.1). "
         "Click a column title to sort by it. Entries marked as submissions were sent in (see the README); "
-        '"verified (N)" means N of its episodes were replayed here and matched. '
+        '"verified (M of M replayed)" means every one of its episodes was replayed here and matched; '
+        '"unverified (N of M replayed)", that only N were (they matched; the others may not). '
         '<a href="leaderboard.csv">Download the table (CSV)</a>.</p>',
         board_table(entries, "")
         if entries
