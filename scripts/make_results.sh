@@ -159,12 +159,26 @@ for policy in results/training/*/seed*/policy.pt; do
   [ -f "$policy" ] || continue
   baseline=$(basename "$(dirname "$(dirname "$policy")")")
   [ "$baseline" = ppo_gail_suite ] && continue  # scored on the suites (above)
+  case $baseline in ppo_gail_study_*) continue ;; esac  # a pair of stages: below
   for layout in a320_cell shape_changed b777_3col full_cabin; do
     OUT=results/ablation_runs run --baseline "$baseline" --layout "$layout" --protocol sequential --config "{\"checkpoint\": \"$policy\"}"
   done
 done
+# The study's configuration, further seeds: the pair `train --baseline ppo_gail_study --stage cleaning|tracking --seed S
+# --keep` kept in results/training/ppo_gail_study_{cleaning,tracking}/seed<S>/ (the reproduction report reads them).
+for cleaning in results/training/ppo_gail_study_cleaning/seed*/policy.pt; do
+  tracking=${cleaning/_cleaning/_tracking}
+  [ -f "$cleaning" ] && [ -f "$tracking" ] || continue
+  for layout in a320_cell shape_changed b777_3col full_cabin; do
+    OUT=results/ablation_runs run --baseline ppo_gail_study --layout "$layout" --protocol sequential \
+      --config "{\"cleaning\": \"$cleaning\", \"tracking\": \"$tracking\"}"
+  done
+done
 
 xargs -d '\n' -P "$(nproc)" -I{} bash -c {} < "$queue"
+if $classic; then
+  bash scripts/random_motion.sh  # the random-motion gap of §5.2.3, factor by factor (results/random_motion.md)
+fi
 python -m cabinbench.leaderboard
 python -m cabinbench.leaderboard --site results/site
 python -m cabinbench.paper

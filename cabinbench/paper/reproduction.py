@@ -12,9 +12,16 @@ networks' configurations and training summaries beside their checkpoints) and th
 - a range ("mainly 55-65 %"): *reproduced* when our mean lies in it, *partly* within 0.10 of it;
 - a ratio ("more than 5 times"): *reproduced* when ours reaches the study's, *partly* when it at
   least points the same way (above 1);
-- a completion claim: from the fraction of our episodes that succeeded.
+- a completion claim: from the fraction of our episodes that reached every goal marker (the study's
+  white cubes, its end of a mission; *reproduced* above one half, *partly* when any did).
 
-Intervals are 95 % percentile-bootstrap intervals over episodes (:mod:`cabinbench.stats`).
+A learned policy's claims (§5.2.3, §5.2.4) are judged on each training seed, then over all of them
+(:mod:`cabinbench.paper.seeds`: every seed shown, the verdict of all, how many seeds stand behind it).
+Only fixed-start episodes outside any suite count, as the study ran them. §5.2.3's random-motion gap
+is tested factor by factor in ``results/random_motion.md`` (:mod:`cabinbench.paper.random_motion`).
+
+Intervals over episodes are 95 % percentile-bootstrap intervals, over training seeds Student-t
+intervals (:mod:`cabinbench.stats`).
 """
 
 from __future__ import annotations
@@ -30,14 +37,22 @@ from cabinbench.layouts.complexity import layout_complexity
 from cabinbench.layouts.load import builtin_layout_dir
 from cabinbench.layouts.resolve import load_layout
 from cabinbench.leaderboard.headline import CHECKPOINTS  # the study's pair keeps its records beside them
+from cabinbench.paper.random_motion import gap_claims, read_settings
+from cabinbench.paper.seeds import (
+    STUDY_STAGES,
+    completed_of,
+    coverage_of,
+    interval,
+    learner_records,
+    learner_seeds,
+    over_seeds,
+)
 from cabinbench.records import read_trajectories
 from cabinbench.sim.events import RobotEvents, StepEvents
 from cabinbench.sim.physics import TIME_STEP
 from cabinbench.sim.rewards import paper
-from cabinbench.stats import mean_ci
 
 RANDOM = ("random_bounce", "random_bounce_study")
-STUDY_STAGES = ("cleaning", "tracking")
 STUDY_RANDOM_SECONDS = 60.0  # Fig. 5.12(e): the random robot's 3000 steps took "around 60s"
 LEARNERS = ("ppo_gail_study", "ppo_gail")  # the study's configuration, then our tuned variant
 COLUMNS = "| where | claim | study | ours | verdict |\n|---|---|---|---|---|"
@@ -62,6 +77,10 @@ def ratio_verdict(ours: float, at_least: float) -> str:
     return "partly" if ours > 1 else "not"
 
 
+def completion_verdict(success_rate: float) -> str:
+    return "reproduced" if success_rate > 0.5 else "partly" if success_rate > 0 else "not"
+
+
 def variant(learner: str) -> str:
     """Whose method a learner is: the study's, or our tuned variant of it."""
     return (
@@ -76,11 +95,6 @@ def row(where: str, claim: str, study: str, ours: str, verdict: str, why: str = 
 
 
 # ----------------------------------------------------------------------------- inputs
-def interval(values, number_format: str = ".1%") -> str:
-    summary = mean_ci(list(values))
-    return f"{summary.mean:{number_format}} [{summary.low:{number_format}}, {summary.high:{number_format}}]"
-
-
 def coverage_free_at(runs: pd.DataFrame, seconds: float) -> list[float]:
     """Each episode's ``coverage_free`` after ``seconds`` of simulated time, from its stored
     trajectory (``coverage`` of the coverable area, scaled to the free floor)."""
@@ -95,7 +109,8 @@ def coverage_free_at(runs: pd.DataFrame, seconds: float) -> list[float]:
 
 
 def episodes(records: pd.DataFrame, layout: str, baseline: str) -> pd.DataFrame:
-    """The sequential single-robot episodes of ``baseline`` on ``layout`` (empty when none)."""
+    """The sequential single-robot episodes of ``baseline`` on ``layout`` from the layout's own start,
+    outside any suite (empty when none)."""
     if records.empty:
         return records
     chosen = (
@@ -103,6 +118,7 @@ def episodes(records: pd.DataFrame, layout: str, baseline: str) -> pd.DataFrame:
         & (records["baseline"] == baseline)
         & (records["protocol"] == "sequential")
         & (records["n_agents"] == 1)
+        & (records["suite"].isna() if "suite" in records else True)
     )
     return records[chosen]
 
@@ -315,18 +331,20 @@ def learner_rows(configs: dict[str, dict | None], results: Path) -> list[str]:
     return rows
 
 
-def headline_rows(records: pd.DataFrame, learners: list[str]) -> list[str]:
-    """§5.2.3 on the cleaning cell: random motion against the learned policies."""
+def headline_rows(records: pd.DataFrame, learned: pd.DataFrame, results: Path, seeds: dict) -> list[str]:
+    """§5.2.3 on the cleaning cell: random motion, its gap tested factor by factor, and every training
+    seed of the learned policies (``learned``, with its ``seed`` column; ``seeds``: each learner's seeds)."""
     rows = []
     for baseline in RANDOM:
         runs = episodes(records, "a320_cell", baseline)
         if not runs.empty:
             rows += random_motion_rows(baseline, runs)
+    rows += random_motion_gap_rows(results)
     random = episodes(records, "a320_cell", RANDOM[-1])
-    for learner in learners:
-        runs = episodes(records, "a320_cell", learner)
+    for learner, expected in seeds.items():
+        runs = episodes(learned, "a320_cell", learner)
         if not runs.empty:
-            rows += learner_cell_rows(learner, runs, random)
+            rows += learner_cell_rows(learner, runs, random, expected)
     return rows
 
 
@@ -355,103 +373,109 @@ def random_motion_rows(baseline: str, runs: pd.DataFrame) -> list[str]:
             "§5.2.3",
             f"random motion never completes (`{baseline}`)",
             "0 of 50 in 3000 steps",
-            f"{int(runs['success'].sum())} of {len(runs)} in {limit(runs)}",
-            "reproduced" if runs["success"].sum() == 0 else "not",
+            f"{int(runs['goals_reached'].sum())} of {len(runs)} in {limit(runs)}",
+            "reproduced" if runs["goals_reached"].sum() == 0 else "not",
+            "completed: every goal marker (the study's white cubes) reached",
         ),
     ]
 
 
-def learner_cell_rows(learner: str, runs: pd.DataFrame, random: pd.DataFrame) -> list[str]:
-    """§5.2.3, Fig. 5.12(b-f): what a learned policy covers, whether it completes the cell, and how
-    much longer random motion (``random``'s episodes; none: no ratios) drives and takes."""
-    rows = [
-        row(
+def random_motion_gap_rows(results: Path) -> list[str]:
+    """§5.2.3: why random motion covers less here, each hypothesis tested (``results/random_motion.md``);
+    none without its records."""
+    return [row("§5.2.3", *claim) for claim in gap_claims(read_settings(results / "random_motion"))]
+
+
+def learner_cell_rows(
+    learner: str, runs: pd.DataFrame, random: pd.DataFrame, expected: list[str]
+) -> list[str]:
+    """§5.2.3, Fig. 5.12(b-f), per training seed: what a learned policy covers, whether it completes
+    the cell, and how much longer random motion (``random``'s episodes; none: no ratios) drives and takes."""
+    claims = [
+        (
             "§5.2.3, Fig. 5.12(b)",
             f"RL covers (`{learner}`)",
             "65-75 %",
-            interval(runs["coverage_free"]),
-            range_verdict(runs["coverage_free"].mean(), 0.65, 0.75),
-            variant(learner),
+            coverage_of,
+            lambda m: range_verdict(m, 0.65, 0.75),
         ),
-        row(
+        (
             "§5.2.3",
             f"RL completes the cell (`{learner}`)",
             "yes (Fig. 5.12(f))",
-            f"{runs['success'].mean():.0%} of {len(runs)}",
-            "reproduced" if runs["success"].mean() > 0.5 else "partly" if runs["success"].any() else "not",
-            variant(learner),
+            completed_of,
+            completion_verdict,
         ),
     ]
+    rows = []
+    for where, claim, study, measure, verdict_of in claims:
+        ours, verdict, why = over_seeds(runs, measure, verdict_of, expected)
+        rows.append(row(where, claim, study, ours, verdict, f"{why}; {variant(learner)}"))
     if random.empty:
         return rows
     for metric, claim, study, at_least in (
         ("path_length", "path", "> 5×", 5.0),
         ("time", "time", "≈ 3×", 2.5),
     ):
-        ratio = random[metric].mean() / runs[metric].mean()
+
+        def ratio(episodes: pd.DataFrame, metric: str = metric) -> tuple[float, str]:
+            value = random[metric].mean() / episodes[metric].mean()
+            return value, f"{value:.2f}× (RL {interval(episodes[metric], '.1f')})"
+
+        ours, verdict, why = over_seeds(
+            runs, ratio, lambda value, at_least=at_least: ratio_verdict(value, at_least), expected, ".2f"
+        )
         rows.append(
             row(
                 "§5.2.3, Fig. 5.12(c-f)",
                 f"random / RL {claim} (`{RANDOM[-1]}` / `{learner}`)",
                 study,
-                f"{ratio:.2f}× ({interval(random[metric], '.1f')} / {interval(runs[metric], '.1f')})",
-                ratio_verdict(ratio, at_least),
-                f"random over {limit(random)}, RL over {limit(runs)} (it stops when the cell is clean)",
+                f"random {interval(random[metric], '.1f')}; {ours}",
+                verdict,
+                f"{why}; random over {limit(random)}, RL over {limit(runs)} (it stops when the cell is "
+                "clean)",
             )
         )
     return rows
 
 
-def transfer_rows(records: pd.DataFrame, learners: list[str]) -> list[str]:
-    """§5.2.4: the policy trained on the cleaning cell, tested zero-shot elsewhere."""
+def transfer_rows(learned: pd.DataFrame, seeds: dict[str, list[str]]) -> list[str]:
+    """§5.2.4, per training seed: the policy trained on the cleaning cell, tested zero-shot elsewhere."""
     claims = (
         ("shape_changed", "§5.2.4, Fig. 5.13", "shape-changed cells", (0.60, 0.70), "mostly completes"),
         ("b777_3col", "§5.2.4, Fig. 5.14", "three columns of seats", (0.55, 0.65), "mostly completes"),
         ("full_cabin", "§5.2.4, Fig. 5.15", "the whole cabin, 10 cells", None, "cleans cell by cell"),
     )
     rows = []
-    for learner in learners:
+    for learner, expected in seeds.items():
         for layout, where, what, coverage, completes in claims:
-            runs = episodes(records, layout, learner)
-            if runs.empty:
-                continue
+            runs = episodes(learned, layout, learner)
+            judged = [(f"`{learner}` {completes}: {what}", "yes", completed_of, completion_verdict)]
             if coverage:
                 low, high = coverage
-                rows.append(
-                    row(
-                        where,
-                        f"`{learner}` covers {what}",
-                        f"{low:.0%}-{high:.0%}",
-                        interval(runs["coverage_free"]),
-                        range_verdict(runs["coverage_free"].mean(), low, high),
-                        variant(learner),
-                    )
+                in_range = lambda mean, low=low, high=high: range_verdict(mean, low, high)  # noqa: E731
+                judged.insert(
+                    0, (f"`{learner}` covers {what}", f"{low:.0%}-{high:.0%}", coverage_of, in_range)
                 )
-            success = runs["success"].mean()
-            rows.append(
-                row(
-                    where,
-                    f"`{learner}` {completes}: {what}",
-                    "yes",
-                    f"{success:.0%} of {len(runs)} episodes",
-                    "reproduced" if success > 0.5 else "partly" if success > 0 else "not",
-                    variant(learner),
-                )
-            )
+            for claim, study, measure, verdict_of in judged if not runs.empty else ():
+                ours, verdict, why = over_seeds(runs, measure, verdict_of, expected)
+                rows.append(row(where, claim, study, ours, verdict, f"{why}; {variant(learner)}"))
     return rows
 
 
 def reproduction_table(records: pd.DataFrame, results: Path, study_checkpoints: Path = CHECKPOINTS) -> str:
     """The reproduction report's table (see the module doc); the study's pair's training records are
-    read from ``study_checkpoints``."""
+    read from ``study_checkpoints``, further training seeds' episodes from ``results/ablation_runs``."""
     configs = {learner: training_config(results, learner, study_checkpoints) for learner in LEARNERS}
-    recorded = set(records["baseline"]) if not records.empty else set()
-    learners = [learner for learner in LEARNERS if learner in recorded]
+    seeds = learner_seeds(results, configs)
+    learned = learner_records(records, results, seeds)
+    recorded = set(learned["baseline"]) if not learned.empty else set()
+    seeds = {learner: expected for learner, expected in seeds.items() if learner in recorded}
     sections: list[Callable[[], list[str]]] = [
         complexity_rows,
         lambda: reward_rows(configs),
         lambda: learner_rows(configs, results),
-        lambda: headline_rows(records, learners),
-        lambda: transfer_rows(records, learners),
+        lambda: headline_rows(records, learned, results, seeds),
+        lambda: transfer_rows(learned, seeds),
     ]
     return "\n".join([COLUMNS, *(line for section in sections for line in section())])
