@@ -1,7 +1,7 @@
-"""Cases of issue 45 that no other test tried as the issue gives them: a layout too large for ``train``, the
-issue's own large files for ``complexity``, and Ctrl-C in ``train`` with worker processes (where it once
-gave tracebacks, a worker's or WorkerDied's wrong advice, instead of one line). The commands run as real
-subprocesses."""
+"""Cases of issue 45 that no other test tried as the issue gives them: a layout too large for ``train``,
+the issue's own large files for ``complexity``, every output under ``/proc``, and Ctrl-C in ``train`` with
+worker processes (where it once gave tracebacks, a worker's or WorkerDied's wrong advice, instead of one
+line). The commands run as real subprocesses."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -47,6 +48,36 @@ def test_train_refuses_a_layout_too_large_in_one_line_and_writes_nothing(tmp_pat
     assert_one_line(completed, f"{tmp_path / 'endless_cabin.yaml'}: field 'cabin.rows'", "TiB")
     assert elapsed < REFUSAL_S
     assert sorted(path.name for path in tmp_path.iterdir()) == ["endless_cabin.yaml"]
+
+
+RUN = ["cabinbench.run", "--baseline", "random_bounce", "--layout", "a320_cell", "--episodes", "1"]
+SUITE_RUN = [
+    "cabinbench.run",
+    "--baseline",
+    "random_bounce",
+    "--suite",
+    "classic",
+    "--episodes-per-layout",
+    "1",
+]
+UNDER_PROC = [  # (the option named, the command): test_user_errors tries each in /sys/kernel, a folder
+    ("--render", [*RUN, "--render", "/proc/first.png"]),  # where nobody may write; /proc has no room
+    ("--submission", [*SUITE_RUN, "--submission", "/proc/s.json"]),
+    ("--out", ["cabinbench.leaderboard", "--out", "/proc/results"]),
+    ("--site", ["cabinbench.leaderboard", "--site", "/proc/site"]),
+    ("--png", ["cabinbench.complexity", "a320_cell", "--png", "/proc/map.png"]),
+    ("--png", ["cabinbench.suites", "--png", "classic", "/proc/sheet.png"]),
+    ("--out", ["cabinbench.paper", "--out", "/proc/paper.md"]),
+]
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="Linux /proc")
+def test_every_output_under_proc_is_refused_in_one_line_before_any_work(tmp_path):
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 2) as pool:
+        results = list(pool.map(lambda case: command(case[1], tmp_path)[0], UNDER_PROC))
+    for (option, _), completed in zip(UNDER_PROC, results):
+        assert_one_line(completed, option, "cannot write in /proc", "give a folder you can write in")
+    assert not list(tmp_path.iterdir())  # no episode ran: no runs/ folder
 
 
 def grid(rows: int, columns: int) -> str:
