@@ -9,6 +9,9 @@ from ``results/figures/``, and ``{{reproduction_table}}``, the study's claims ag
 the layouts, the records in ``results/runs`` and the training configurations
 (:mod:`cabinbench.paper.reproduction`). Nothing in the paper's tables is typed by hand; the same inputs give a
 byte-identical paper. A missing input is a user error: one line, exit status 2.
+
+``--random-motion`` writes ``<results>/random_motion.md`` instead (the random-motion gap of §5.2.3,
+tested: :mod:`cabinbench.paper.random_motion`) from the records of ``scripts/random_motion.sh``.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from cabinbench.layouts.resolve import load_layout
 from cabinbench.leaderboard.headline import HEADLINE_SUITES, headline_markdown, headline_rows
 from cabinbench.leaderboard.predictors import predictor_finding
 from cabinbench.leaderboard.suites import complexity_tests, suite_rows
+from cabinbench.paper.random_motion import write_report
 from cabinbench.paper.reproduction import reproduction_table
 from cabinbench.paper.summary import abstract, compute_table, figure_caption, findings
 from cabinbench.records import RecordWarning, read_records, with_current_complexity
@@ -121,7 +125,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--results", default="results")
     # no string default: argparse would check it before an unknown option, and report the wrong mistake
     parser.add_argument("--out", type=output_file(".md"), help=f"the paper to write (default: {DEFAULT_OUT})")
+    parser.add_argument(
+        "--random-motion",
+        action="store_true",
+        help="write <results>/random_motion.md from <results>/random_motion/ instead of the paper",
+    )
     args = parser.parse_args(argv)
+    if args.random_motion:
+        print(f"wrote {write_report(Path(args.results))}")
+        return 0
     out = args.out or checked_output("--out", output_file(".md"), DEFAULT_OUT)
     results, template = Path(args.results), Path(args.template)
     if not (results / "leaderboard.md").is_file():
