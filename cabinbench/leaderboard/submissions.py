@@ -8,7 +8,11 @@ A submission is one self-contained JSON file, written by ``run --suite S ... --s
      "protocol": "sequential", "n_agents": 1,
      "packages": {"python": ..., "cabinbench": ..., "numpy": ..., ...},
      "records": [one record per episode, as in results/runs/*.jsonl],
+     "files": {name: {"sha256": ..., "base64": ...}, ...}    only where the baseline reads files
      "checksum": "sha256:<hex>"}
+
+``files`` carries what the baseline's config names and its replay reads: a ``path`` run's plans, an ``onnx``
+run's model (:mod:`.submission_files`); the replay uses these, and a changed plan or model replays otherwise.
 
 The checksum is the SHA-256 of the canonical JSON (sorted keys, no spaces) of everything else: it
 finds a file changed by accident, not one changed on purpose (anyone recomputes it). Honesty comes
@@ -35,9 +39,11 @@ from pathlib import Path
 import numpy as np
 
 from cabinbench.agents import ENTRY_POINT_GROUP, registered_baselines
-from cabinbench.errors import LayoutError, UsageError
+from cabinbench.errors import LayoutError
 from cabinbench.layouts.resolve import load_layout
 from cabinbench.layouts.suites import Suite, get_suite
+from cabinbench.leaderboard.submission_files import FIELD as FILES
+from cabinbench.leaderboard.submission_files import SubmissionError, carried, carry, identity, replay_config
 from cabinbench.metrics import METRICS, TEAM_METRICS
 from cabinbench.records import RECORD_FIELDS, metric_problem, safe_name
 from cabinbench.values import is_whole_number
@@ -47,10 +53,6 @@ FORMAT = "cabinbench-submission/1"
 PACKAGES = ("numpy", "scipy", "pymunk", "gymnasium", "pettingzoo")  # what an episode's numbers depend on
 VERIFIED_SUFFIX = ".verification.json"
 NOT_REPLAYED = ("wall_time",)  # real seconds: the speed of the machine, not the outcome of the episode
-
-
-class SubmissionError(UsageError):
-    """A submission that cannot be written, filed or verified; one line naming what is wrong (exit 2)."""
 
 
 def checksum(body: dict) -> str:
@@ -93,6 +95,9 @@ def write_submission(path: Path, records: list[dict], spec: str, suite: Suite) -
         "packages": package_versions(dist),
         "records": records,
     }
+    files = carry(spec, first["baseline_config"])
+    if files:  # a plan or a model the replay needs
+        body[FILES] = files
     body["checksum"] = checksum(body)
     path.write_text(json.dumps(body, indent=1, allow_nan=False) + "\n", encoding="utf-8")
     return body
@@ -220,6 +225,7 @@ def check(body: dict, path: Path) -> Suite:
             f"{path}: checksum does not match the content: the file was changed after it was written"
         )
     check_header(body, path)
+    carried(body, path)
     try:
         suite = get_suite(body["suite"]["name"])
     except LayoutError as error:
@@ -279,8 +285,8 @@ def check(body: dict, path: Path) -> Suite:
 
 
 def filed_name(body: dict) -> str:
-    """One file per entry: suite, baseline, its config, protocol and K."""
-    config = hashlib.sha256(json.dumps(body["baseline"]["config"], sort_keys=True).encode()).hexdigest()[:8]
+    """One file per entry: suite, baseline, its config (and the files it carries), protocol and K."""
+    config = hashlib.sha256(json.dumps(identity(body), sort_keys=True).encode()).hexdigest()[:8]
     parts = [
         body["suite"]["name"],
         body["baseline"]["name"],
@@ -369,25 +375,26 @@ def verify(path: Path, episodes: int | None, seed: int, folder: Path) -> tuple[l
     size = len(records) if episodes is None else min(episodes, len(records))
     chosen = sorted(rng.choice(len(records), size=size, replace=False).tolist())
     played, mismatches = [], []
-    for index in chosen:
-        record = records[index]
-        episode_seed = record["seed"] + record["episode"]
-        replayed, _ = run_episode(
-            spec,
-            load_layout(record["layout"]),
-            episode_seed,
-            record["protocol"],
-            record["n_agents"],
-            record["env_config"],
-            record["baseline_config"],
-        )
-        played.append(f"{record['layout']} seed {episode_seed}")
-        for name in metric_names(record["n_agents"]):
-            if name not in NOT_REPLAYED and not same(record[name], replayed.get(name)):
-                mismatches.append(
-                    f"{record['layout']} seed {episode_seed}: {name} submitted {record[name]!r}, "
-                    f"replayed {replayed.get(name)!r}"
-                )
+    with replay_config(body, path) as config:  # the files it carries, never ones of this machine
+        for index in chosen:
+            record = records[index]
+            episode_seed = record["seed"] + record["episode"]
+            replayed, _ = run_episode(
+                spec,
+                load_layout(record["layout"]),
+                episode_seed,
+                record["protocol"],
+                record["n_agents"],
+                record["env_config"],
+                config,
+            )
+            played.append(f"{record['layout']} seed {episode_seed}")
+            for name in metric_names(record["n_agents"]):
+                if name not in NOT_REPLAYED and not same(record[name], replayed.get(name)):
+                    mismatches.append(
+                        f"{record['layout']} seed {episode_seed}: {name} submitted {record[name]!r}, "
+                        f"replayed {replayed.get(name)!r}"
+                    )
     target = folder / filed_name(body)
     if target.exists() and read(target).get("checksum") == body["checksum"]:
         result = {"checksum": body["checksum"], "seed": seed, "episodes": played, "mismatches": mismatches}
