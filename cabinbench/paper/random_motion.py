@@ -16,6 +16,11 @@ Four hypotheses, each a factor that moves from ours to the study's value (:data:
 - *budget*: ours 3000 steps (the study's count) of 0.1 s = 300 s; the study's 3000 steps took
   about 60 s (Fig. 5.12(e)): 600 steps.
 
+Not varied: the robot's size (0.35 m, the study's Create 2, §5.1; its simulated robot a box 12 px
+wide) and the decision interval (the study's 60 s / 3000 steps = 0.02 s, Unity's fixed step; ours
+0.1 s, ``TIME_STEP``, fixed in the simulation): with speed and budget in seconds the interval only
+sets how soon a bump is noticed.
+
 The experiment is every combination of the four (2⁴ settings), ``random_bounce_study`` in the
 sequential protocol, 20 episodes a setting (``scripts/random_motion.sh``: seeds 0, 100, ..., 400,
 4 episodes each). Speed, turn rate and width are layouts (``a320_cell`` with a ``robot`` block or
@@ -434,7 +439,9 @@ def random_motion_markdown(settings: list[Setting]) -> str:
         "Values in bold are the study's. Coverage is the covered part of the free floor when the "
         "episode ended (at the budget, or when the robot reached every goal marker, the study's "
         "end of an episode); intervals are Student-t intervals over episodes. Made by "
-        "`scripts/random_motion.sh`; the rules are in `cabinbench/paper/random_motion.py`.",
+        "`scripts/random_motion.sh`; the rules are in `cabinbench/paper/random_motion.py`. Not "
+        "varied: the robot's size (0.35 m, the study's Create 2) and the decision interval (the "
+        f"study's 0.02 s, ours {TIME_STEP:g} s, fixed in the simulation).",
         sources,
         random_motion_table(settings),
         "## Verdicts",
