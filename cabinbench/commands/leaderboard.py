@@ -20,6 +20,9 @@ files only, one report per module:
 - ``<out>/figures/``, the training curves of the shipped policies in ``--training`` among them
   (:mod:`cabinbench.leaderboard.figures`); the uncovered table and these figures are drawn per
   shipped policy;
+- ``<out>/learning_curves.csv``, ``figures/learning_curves.png`` and the learning curves section of
+  ``leaderboard.md``: every kept training run's validation against env steps, all its seeds
+  (:mod:`cabinbench.leaderboard.curves`);
 - ``<out>/ablation.md``, ``<out>/ablation.csv`` and ``figures/ablation_coverage.png``
   (:mod:`cabinbench.leaderboard.ablation`). The shipped policies' episodes come from ``--runs``.
 
@@ -55,6 +58,7 @@ from cabinbench.cli import (
 )
 from cabinbench.errors import UsageError
 from cabinbench.leaderboard.ablation import ablation_csv, ablation_figure, ablation_markdown, ablation_rows
+from cabinbench.leaderboard.curves import write_learning_curves
 from cabinbench.leaderboard.figures import training_figures, write_figures
 from cabinbench.leaderboard.headline import headline_csv, headline_html, headline_rows, headline_section
 from cabinbench.leaderboard.site import Entry, build_site
@@ -232,7 +236,7 @@ def write_site(args, inputs: Inputs, citation: Path) -> int:
 
 
 def write_tables(args, inputs: Inputs, out: Path) -> int:
-    """leaderboard.{md,csv}, teams.csv, uncovered.{md,csv} and the figures."""
+    """leaderboard.{md,csv}, teams.csv, uncovered.{md,csv}, learning_curves.csv and the figures."""
     table = [row for row, _ in inputs.own] + [
         {**entry.row, "baseline": f"{entry.row['baseline']} ({entry.source})"} for entry in inputs.submitted
     ]
@@ -245,10 +249,12 @@ def write_tables(args, inputs: Inputs, out: Path) -> int:
     header = document_header(classic(inputs.every), sources, command)
     teams = team_rows(inputs.own)
     suite_text, suite_figures = suites_section(suite_records(inputs.every), out)
+    curves_text, curves_figures = write_learning_curves(Path(args.training), out)
     (out / "leaderboard.md").write_text(
         header
         + headline_section(headline)
         + "\n"
+        + curves_text
         + markdown(table, inputs.notes)
         + teams_section(teams)
         + suite_text,
@@ -273,6 +279,7 @@ def write_tables(args, inputs: Inputs, out: Path) -> int:
         (write_figures(inputs.groups, rows, out / "figures") if inputs.groups else [])  # none: all in suites
         + training_figures(Path(args.training), out / "figures")
         + suite_figures
+        + curves_figures
     )
     print(
         f"{len(table)} rows from {len(inputs.every)} episodes: {out / 'leaderboard.md'}, "

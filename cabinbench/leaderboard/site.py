@@ -38,9 +38,10 @@ from pathlib import Path
 import pandas as pd
 
 from cabinbench.errors import UsageError
+from cabinbench.leaderboard.curves import CURVES_CAPTION, CURVES_FIGURE
 from cabinbench.leaderboard.site_board import Entry
 from cabinbench.leaderboard.site_cite import cite_block
-from cabinbench.leaderboard.site_html import baseline_page_name, escape, layout_page_name
+from cabinbench.leaderboard.site_html import baseline_page_name, escape, figure_html, layout_page_name
 from cabinbench.leaderboard.site_pages import baseline_page, index_page, layout_page
 from cabinbench.leaderboard.site_suites import suite_file, suite_page
 from cabinbench.leaderboard.table import csv_table
@@ -98,6 +99,12 @@ def build_site(
     shutil.copyfile(citation, out / "CITATION.cff")
     (out / "cabinbench.bib").write_text(bib, encoding="utf-8")
     (out / "leaderboard.csv").write_text(site_csv(classic), encoding="utf-8")
+    learning_curves = figures / CURVES_FIGURE
+    if learning_curves.is_file():  # the learned baselines' learning curves, under the headline table
+        shutil.copyfile(learning_curves, out / "images" / CURVES_FIGURE)
+        headline += "<h2>Learning curves</h2>" + figure_html(
+            f"images/{CURVES_FIGURE}", "learning curves", CURVES_CAPTION
+        )
     written = [out / "index.html"]
     records = sum(len(entry.episodes) for entry in classic)
     written[-1].write_text(
