@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+from cabinbench.leaderboard.curves import CURVES_CAPTION
 from cabinbench.leaderboard.headline import HEADLINE_SUITES, TrainingCost
 from cabinbench.stats import Summary
 
@@ -140,6 +141,7 @@ FIGURE_CAPTIONS = {
     "the validation episodes.",
     "makespan_agents": "Team makespan against the number of robots K, per layout (dashed: the ideal T(1)/K).",
     "ablation_coverage": "Coverage of each ablation on the four cabin layouts, every training seed.",
+    "learning_curves": CURVES_CAPTION,
 }
 SUITE_FIGURES = {
     "profiles": "performance profiles, the share of layouts above each level",
