@@ -23,9 +23,12 @@ def read_metrics(path: str | os.PathLike) -> list[dict]:
 
 
 def validation_score(rows: list[dict]) -> float:
-    """A checkpoint's validation score: success rate + coverage, averaged over the training layouts. Both,
-    because an episode ends at success: a policy that never finishes may cover more by wandering until the
-    step limit, and one that finishes early may leave floor uncleaned."""
+    """A checkpoint's validation score, the mean over its rows: the headline ``clean_score`` where they
+    record it (runs validated on cabin-v1-val by the rsl-rl trainer), else success rate + coverage (earlier
+    runs, and bc and dagger). Both, because an episode ends at success: a policy that never finishes may
+    cover more by wandering until the step limit, and one that finishes early may leave floor uncleaned."""
+    if all(row.get("clean_score") not in (None, "") for row in rows):
+        return float(np.mean([float(row["clean_score"]) for row in rows]))
     return float(np.mean([float(row["success"]) + float(row["coverage"]) for row in rows]))
 
 
@@ -104,10 +107,11 @@ def plot_curves(
 
 
 def _plot_validation(axis, validation: list[dict]) -> None:
-    """Mean validation coverage and success rate over the training layouts per checkpoint; the best one
-    marked."""
+    """Mean validation coverage and success rate (and clean_score where recorded) over the validation layouts
+    per checkpoint; the best one marked."""
     iterations = sorted({int(row["iteration"]) for row in validation})
-    for metric, colour in (("coverage", "tab:green"), ("success", "tab:orange")):
+    scored = ("clean_score", "tab:blue") if validation[0].get("clean_score") not in (None, "") else None
+    for metric, colour in filter(None, (scored, ("coverage", "tab:green"), ("success", "tab:orange"))):
         means = [
             np.mean([float(row[metric]) for row in validation if int(row["iteration"]) == iteration])
             for iteration in iterations
@@ -115,7 +119,10 @@ def _plot_validation(axis, validation: list[dict]) -> None:
         axis.plot(iterations, means, marker="o", markersize=3, color=colour, label=metric)
     best, _ = best_checkpoint(validation)
     axis.axvline(best, color="grey", linestyle="--", linewidth=1, label=f"best ({best})")
-    axis.set_title("(g) Validation: training cells, other seeds", fontsize=10)
+    held_out = all(row["layout"].startswith("cabin-v1-val/") for row in validation)
+    axis.set_title(
+        f"(g) Validation: {'cabin-v1-val' if held_out else 'training cells, other seeds'}", fontsize=10
+    )
     axis.set_xlabel("iteration")
     axis.set_ylim(-0.02, 1.02)
     axis.grid(alpha=0.3)

@@ -40,6 +40,7 @@ def tiny_config(**overrides) -> TeamTrainConfig:
         demo_episodes=1,
         save_interval=1,
         validation_episodes=1,
+        validation_interval=1,
     )
     return TeamTrainConfig(**{**settings, **overrides})
 
@@ -98,6 +99,7 @@ def test_team_training_checkpoints_resumes_and_exports_a_team_policy(tmp_path):
     assert any(row["episodes"] != "0" for row in rows)
     validation = training_records.read_metrics(run_dir / "validation.csv")
     assert [row["iteration"] for row in validation] == ["1", "2", "3"]  # team episodes of every checkpoint
+    assert all(row["layout"].startswith("cabin-v1-val/") for row in validation)  # as a single robot's
 
     policy = read_policy_file(result.policy_path)
     assert policy["ablation"] == "ppo_gail_team" and policy["training"]["iterations"] == 3

@@ -20,6 +20,7 @@ os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl's logger imports 
 import numpy as np
 import pytest
 import torch
+from cabinbench.baselines.imitation.config import ImitationConfig
 from cabinbench.baselines.ppo_gail import training
 from cabinbench.baselines.ppo_gail.algorithm import PPOCuriosityGail
 from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR, PolicyFileError, read_policy_file
@@ -48,6 +49,7 @@ def tiny_config(**overrides) -> training.TrainConfig:
         threads=1,
         hidden_dims=[32, 32],
         validation_episodes=2,
+        validation_interval=2,
     )
     return training.TrainConfig(**{**settings, **overrides})
 
@@ -174,10 +176,11 @@ def test_a_run_interrupted_and_resumed_trains_exactly_the_policy_of_one_that_ran
 
 
 def test_every_checkpoint_is_validated_and_the_last_or_the_best_exported(tmp_path, monkeypatch):
-    """Every checkpoint plays the validation episodes (seeds apart from the leaderboard's) on every training
-    layout. Ctrl-C during validation keeps the finished rows, and a resumed run plays only the checkpoints not
-    yet validated. policy.pt is the last checkpoint's actor, or with export="best" (which a finished run may
-    be resumed to change) the best validated one's."""
+    """Every ``validation_interval``-th checkpoint plays one episode on each layout of the cabin-v1-val
+    sample, from a random start with seeds apart from the leaderboard's, and records the headline score.
+    Ctrl-C during validation keeps the finished rows, and a resumed run plays only the checkpoints not yet
+    validated. policy.pt is the last checkpoint's actor, or with export="best" (which a finished run may be
+    resumed to change) the one with the best validation clean_score."""
     from cabinbench import episodes
 
     run_dir = tmp_path / "run"
@@ -186,37 +189,37 @@ def test_every_checkpoint_is_validated_and_the_last_or_the_best_exported(tmp_pat
         layouts=["a320_cell", "a320_tracking_cell"],
         iterations=4,
         save_interval=1,
+        validation_interval=1,
         validation_episodes=2,
+        workers=1,  # validation in this process, where the episodes are counted
     )
     played, original = [], episodes.run_episode
 
     def recording_run_episode(baseline, layout, seed, **kwargs):
-        played.append((layout.name, seed))
-        if len(played) == 9:  # the first episode of the third checkpoint
+        played.append((layout, seed, kwargs["env_kwargs"]))
+        if len(played) == 5:  # the first episode of the third checkpoint
             raise KeyboardInterrupt
         return original(baseline, layout, seed, **kwargs)
 
     monkeypatch.setattr(episodes, "run_episode", recording_run_episode)
     interrupted = training.train(config, run_dir, progress=False)
     assert interrupted.interrupted and interrupted.iterations == 4 and interrupted.policy_path is None
+    sample = training.suite_sample("cabin-v1-val", 2, training.VALIDATION_SEED)
     rows = training_records.read_metrics(run_dir / "validation.csv")
     assert [(row["iteration"], row["layout"]) for row in rows] == [
-        ("1", "a320_cell"),
-        ("1", "a320_tracking_cell"),
-        ("2", "a320_cell"),
-        ("2", "a320_tracking_cell"),
+        (iteration, layout) for iteration in ("1", "2") for layout in sample
     ]
     seeds = [training.VALIDATION_SEED, training.VALIDATION_SEED + 1]
-    assert played[:4] == [("a320_cell", seed) for seed in seeds] + [
-        ("a320_tracking_cell", seed) for seed in seeds
-    ]
+    random_start = {"random_start": True, "max_steps": 30}
+    assert played[:4] == 2 * [(layout, seed, random_start) for layout, seed in zip(sample, seeds)]
 
     played.clear()
     result = training.train(config, run_dir, resume=True, progress=False)
-    assert len(played) == 2 * 2 * 2  # checkpoints 3 and 4 only
+    assert len(played) == 2 * 2  # checkpoints 3 and 4 only
     rows = training_records.read_metrics(run_dir / "validation.csv")
     assert [row["iteration"] for row in rows] == ["1", "1", "2", "2", "3", "3", "4", "4"]
-    assert all(row["episodes"] == "2" and 0 < float(row["coverage"]) <= 1 for row in rows)
+    assert all(row["episodes"] == "1" and 0 < float(row["coverage"]) <= 1 for row in rows)
+    assert all(0 < float(row["clean_score"]) < 0.5 for row in rows)  # none cleaned in 30 steps
     assert read_policy_file(result.policy_path)["training"]["exported_iteration"] == 4
     assert _same_actor(result.policy_path, run_dir / "validation" / "policy_000004.pt")
     assert (run_dir / "curves.png").stat().st_size > 10_000
@@ -519,6 +522,9 @@ def test_committed_training_configs_read_back_as_they_were_written():
     assert len(paths) >= 4
     for path in paths:
         text = path.read_text()
+        if "method" in json.loads(text):  # bc and dagger: the imitation trainer's config
+            assert json.dumps(ImitationConfig.from_dict(json.loads(text)).to_dict(), indent=2) + "\n" == text
+            continue
         config_class = TeamTrainConfig if "ppo_gail_team" in path.parts else training.TrainConfig
         config = config_class.from_dict(json.loads(text))
         assert json.dumps(config.to_dict(), indent=2) + "\n" == text, path
@@ -672,9 +678,8 @@ def test_ship_installs_the_policy_and_keeps_its_training_records(tmp_path, monke
     assert read_policy_file(tmp_path / "checkpoints" / "ppo.pt")["ablation"] == "ppo"
     records = tmp_path / "results" / "training" / "ppo"
     assert len(training_records.read_metrics(records / "metrics.csv")) == 2
-    assert [row["iteration"] for row in training_records.read_metrics(records / "validation.csv")] == [
-        "2"
-    ]  # the one checkpoint
+    validated = training_records.read_metrics(records / "validation.csv")
+    assert {row["iteration"] for row in validated} == {"2"} and len(validated) == 10  # the last, 10 layouts
     # --keep: a further training seed's policy and records, beside the shipped run's
     status = train_main(
         [
@@ -705,7 +710,7 @@ def test_ship_installs_the_policy_and_keeps_its_training_records(tmp_path, monke
         and json.loads((kept / "config.json").read_text())["seed"] == 3
     )
     assert len(training_records.read_metrics(kept / "metrics.csv")) == 1
-    assert len(training_records.read_metrics(kept / "validation.csv")) == 1
+    assert {row["iteration"] for row in training_records.read_metrics(kept / "validation.csv")} == {"1"}
     figures = leaderboard.training_figures(tmp_path / "results" / "training", tmp_path)
     assert [path.name for path in figures] == ["training__ppo.png"] and figures[0].stat().st_size > 10_000
 
@@ -713,8 +718,8 @@ def test_ship_installs_the_policy_and_keeps_its_training_records(tmp_path, monke
 def test_train_on_a_suite_records_it_resumes_and_ships_ppo_gail_suite(tmp_path, monkeypatch):
     """``train --baseline ppo_gail --suite cabin-v1-train`` on the real trainer (2 envs, a few iterations):
     the config, the training summary and the exported policy name the suite and its version; the expert
-    demonstrates on a seeded handful of suite layouts; validation plays suite layouts; an interrupted suite
-    run resumes; the policy ships as ``ppo_gail_suite``, which refuses a policy trained on cells."""
+    demonstrates on a seeded handful of suite layouts; validation plays cabin-v1-val layouts; an interrupted
+    suite run resumes; the policy ships as ``ppo_gail_suite``, which refuses a policy trained on cells."""
     from cabinbench.commands.train import main as train_main
     from cabinbench.layouts.suites import get_suite
 
@@ -731,9 +736,10 @@ def test_train_on_a_suite_records_it_resumes_and_ships_ppo_gail_suite(tmp_path, 
     demos = sorted(path.name for path in (tmp_path / "run" / "demos").glob("*.npz"))
     expected = training.suite_sample("cabin-v1-train", 2, 0)
     assert demos == [f"{name.split('/')[1]}.npz" for name in expected]
-    assert {row["layout"] for row in training_records.read_metrics(tmp_path / "run" / "validation.csv")} == {
-        "cabin-v1-train"
-    }
+    validated = training_records.read_metrics(tmp_path / "run" / "validation.csv")
+    assert {row["layout"] for row in validated} == set(
+        training.suite_sample("cabin-v1-val", 2, training.VALIDATION_SEED)
+    )
 
     # resumed to a third iteration, from the checkpoint of the second, and shipped as ppo_gail_suite
     assert train_main([*common, "--iterations", "3", "--resume", "--ship", "--ship-dir", "checkpoints"]) == 0

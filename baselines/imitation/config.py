@@ -9,11 +9,14 @@ import os
 from dataclasses import dataclass, field
 
 from cabinbench.baselines.ppo_gail.options import option
-from cabinbench.baselines.ppo_gail.training.config import CELL_LAYOUTS, VALIDATION_SEED, suite_sample
+from cabinbench.baselines.ppo_gail.training.config import (
+    CELL_LAYOUTS,
+    VALIDATION_SEED,
+    VALIDATION_SUITE,
+    suite_sample,
+)
 
 METHODS = ("bc", "dagger")
-VALIDATION_SUITE = "cabin-v1-val"
-"""The only layouts a checkpoint is chosen on (never test, ood or the classic layouts)."""
 TRAINING_SEED = 2_000_000
 """Training episodes take seeds from here on: neither the leaderboard's (0-403) nor validation's
 (``VALIDATION_SEED`` + i)."""

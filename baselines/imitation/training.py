@@ -39,10 +39,14 @@ from cabinbench.baselines.ppo_gail.training.config import (
     POLICY_FILE,
     VALIDATION_DIR,
     VALIDATION_FILE,
-    VALIDATION_SEED,
 )
 from cabinbench.baselines.ppo_gail.training.loop import TrainResult
-from cabinbench.baselines.ppo_gail.training.validation import VALIDATION_COLUMNS
+from cabinbench.baselines.ppo_gail.training.validation import (
+    VALIDATION_COLUMNS,
+    Player,
+    one_episode_each,
+    validation_rows,
+)
 
 from cabinbench.envs.settings import observation_config
 from cabinbench.executors.local import LocalExecutor
@@ -235,39 +239,19 @@ def metrics_row(iteration: int, rounds: list[dict], losses: tuple[float, float],
 
 def validate(config: ImitationConfig, run_dir: Path, iteration: int, learner: Learner, executor) -> None:
     """Play checkpoint ``iteration``'s policy (mean actions) for one episode from a random start on each
-    cabin-v1-val layout of ``config.validation_layouts``; append a row per layout to ``validation.csv``
-    (unless that checkpoint's rows are there: a resumed run)."""
+    cabin-v1-val layout of ``config.validation_layouts`` (``validation.validation_rows``, as the rsl-rl
+    trainer does); append a row per layout to ``validation.csv`` (unless that checkpoint's rows are there: a
+    resumed run)."""
     path = run_dir / VALIDATION_FILE
     rows = read_rows(path)
     if any(int(row["iteration"]) == iteration for row in rows):
         return
     policy = export(config, learner, run_dir / VALIDATION_DIR / f"policy_{iteration:06d}.pt", {})
     env_kwargs = {"random_start": True, **({"max_steps": config.max_steps} if config.max_steps else {})}
-    jobs = [
-        (config.method, layout, VALIDATION_SEED + index, env_kwargs, str(policy))
-        for index, layout in enumerate(config.validation_layouts)
-    ]
-    records = sorted(executor.map(validation_episode, jobs), key=lambda record: record["seed"])
-    measured = [
-        {
-            "iteration": iteration,
-            "layout": record["layout"],
-            "episodes": 1,
-            **{metric: float(record[metric]) for metric in VALIDATION_COLUMNS[3:]},
-        }
-        for record in records
-    ]
+    player = Player(config.method, str(policy), env_kwargs)
+    plays = one_episode_each(config.validation_layouts)
+    measured = validation_rows(iteration, plays, player, executor, VALIDATION_COLUMNS)
     write_rows(path, VALIDATION_COLUMNS, rows + measured)
-
-
-def validation_episode(job: tuple) -> dict:
-    """One validation episode: (baseline, layout, seed, env_kwargs, policy file) -> its record."""
-    from cabinbench.episodes import run_episode
-
-    baseline, layout, seed, env_kwargs, policy = job
-    torch.set_num_threads(1)
-    record = run_episode(baseline, layout, seed, env_kwargs=env_kwargs, config={"checkpoint": policy})[0]
-    return {**record, "layout": layout, "seed": seed}
 
 
 def export(config: ImitationConfig, learner: Learner, path: Path, training: dict) -> Path:

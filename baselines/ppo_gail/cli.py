@@ -10,7 +10,8 @@
         [--steps-per-env N] [--seed S]
         [--reward paper|coverage] [--[no-]terminate-on-bound] [--max-steps N] [--algorithm JSON]
         [--min-action-std X] [--coverage-patch N] [--coverage-patch-cell M] [--[no-]random-start]
-        [--threads N] [--workers N] [--save-interval N] [--validation-episodes N] [--export last|best]
+        [--threads N] [--workers N] [--save-interval N] [--validation-episodes N] [--validation-interval N]
+        [--export last|best]
         [--demonstrations FILE.npz ...] [--demo-episodes N] [--demo-action-noise STD]
         [--run-dir DIR] [--resume] [--export-latest] [--ship [--ship-dir DIR]] [--keep] [--no-progress]
         [--seeds S ... [--executor local|ray [--address A]]]
@@ -32,22 +33,23 @@ Otherwise options not given take the defaults of ``cabinbench.baselines.ppo_gail
 shipped policies' configuration; with ``--layout`` repeated, one policy trains on all of them, by default
 ``a320_cell`` and ``a320_tracking_cell``). With ``--suite NAME`` (e.g. ``cabin-v1-train``) it trains on the
 suite instead, through ``CabinBench/Suite-v0``: every env draws a new layout of the suite at each reset; the
-expert demonstrates on ``--demo-layouts`` of its layouts, validation plays one episode on each of
-``--validation-episodes`` of them, and the policy ships as ``<baseline>_suite`` (``ppo_gail_suite``). The run
-lives in ``--run-dir`` (default ``runs/train/<baseline>__seed<S>``): config, demonstrations, checkpoints,
-``metrics.csv``, ``curves.png``, the exported ``policy.pt`` and its ONNX twin ``policy.onnx`` for the ``onnx``
-baseline (every trainer's but ``ppo_lstm``'s: its memory is no part of a twin). ``--resume`` continues an
-interrupted run from its latest checkpoint, with the saved config (``--iterations`` may raise the total). At
-the end every checkpoint's policy plays ``--validation-episodes`` episodes (default 20) on each training
-layout (``validation.csv`` in the run directory); ``--export best`` exports the checkpoint that did best there
-instead of the last (see ``TrainConfig.export`` for why the last is the default). ``--ship`` copies the
-exported policy to ``<ship-dir>/<baseline>.pt`` and its twin to ``<baseline>.onnx`` (``--ship-dir``, default
-the repository's ``baselines/ppo_gail/checkpoints``: run it from the repository root), where ``python -m
-cabinbench.run --baseline <baseline>`` finds it, and the run's ``config.json``, ``metrics.csv`` and
-``validation.csv`` to ``results/training/<baseline>/``, from which ``python -m cabinbench.leaderboard`` draws
-the committed training curves. ``--keep`` copies the policy, its twin, ``config.json``, ``metrics.csv`` and
-``validation.csv`` to ``results/training/<baseline>/seed<S>/``: a further training run of the same command,
-which ``scripts/make_results.sh`` scores into ``results/ablation.md``.
+expert demonstrates on ``--demo-layouts`` of its layouts, and the policy ships as ``<baseline>_suite``
+(``ppo_gail_suite``). The run lives in ``--run-dir`` (default ``runs/train/<baseline>__seed<S>``): config,
+demonstrations, checkpoints, ``metrics.csv``, ``curves.png``, the exported ``policy.pt`` and its ONNX twin
+``policy.onnx`` for the ``onnx`` baseline (every trainer's but ``ppo_lstm``'s: its memory is no part of a
+twin). ``--resume`` continues an interrupted run from its latest checkpoint, with the saved config
+(``--iterations`` may raise the total). At the end the policy of every ``--validation-interval``-th checkpoint
+and of the last plays one episode on each of ``--validation-episodes`` layouts of cabin-v1-val from a random
+start (``validation.csv`` in the run directory, with the headline clean_score); ``--export best`` exports the
+checkpoint that did best there instead of the last (see ``TrainConfig.export`` for why the last is the
+default). ``--ship`` copies the exported policy to ``<ship-dir>/<baseline>.pt`` and its twin to
+``<baseline>.onnx`` (``--ship-dir``, default the repository's ``baselines/ppo_gail/checkpoints``: run it from
+the repository root), where ``python -m cabinbench.run --baseline <baseline>`` finds it, and the run's
+``config.json``, ``metrics.csv`` and ``validation.csv`` to ``results/training/<baseline>/``, from which
+``python -m cabinbench.leaderboard`` draws the committed training curves. ``--keep`` copies the policy, its
+twin, ``config.json``, ``metrics.csv`` and ``validation.csv`` to ``results/training/<baseline>/seed<S>/``: a
+further training run of the same command, which ``scripts/make_results.sh`` scores into
+``results/ablation.md``.
 
 ``--seeds S ...`` trains one run per seed at once, each exactly as ``--seed S`` would, in its own run
 directory ``<name>__seed<S>`` in the folder ``--run-dir`` (default ``runs/train``), one CPU each
@@ -271,7 +273,7 @@ def train_checked(args: argparse.Namespace, trainer: Trainer, config: TrainConfi
         f"metrics: {result.run_dir / 'metrics.csv'}"
     )
     if config.validation_episodes:
-        print(f"validation of every checkpoint: {result.run_dir / 'validation.csv'}")
+        print(f"validation of the checkpoints: {result.run_dir / 'validation.csv'}")
     print(f"onnx twin: {export_twin(result.policy_path)}")  # every trainer's policy passes here
     if args.ship:
         print(trainer.ship(result, name, args.ship_dir, config))

@@ -17,7 +17,7 @@ The single-robot trainer (``baselines.ppo_gail.training``) runs unchanged: ``Tea
   single-robot policy file, by default the shipped ``ppo_gail``; the critic, ICM and discriminator start
   fresh. The policy then only has to learn what a team adds (other robots in its lidar, floor cleaned by
   them) on the few iterations a 2-core CPU affords;
-- validation plays the team (``n_agents`` robots) on each training layout.
+- validation plays the team (``n_agents`` robots) on layouts of cabin-v1-val, as a single robot's does.
 
 The shipped policy takes two such runs (``scripts/train_team_policies.sh``): K = 2 from ``ppo_gail``, then
 K = 4 from that policy with ``--init-policy`` and no entropy bonus (``docs/experiments.md``, "The learned
@@ -59,9 +59,15 @@ class TeamTrainConfig(TrainConfig):
     max_steps: int | None = 6000
     """Episode step limit: 600 s, the makespan target on ``full_cabin`` with K = 2 (the layout's own limit
     is 1500 s); longer episodes would spend the few iterations on the cabin's last cells."""
-    validation_episodes: int = 2
-    """Team episodes per training layout and checkpoint at the end of training (a ``full_cabin`` team episode
-    takes about a minute on a CPU)."""
+    validation_episodes: int = 5
+    """Layouts of cabin-v1-val on each of which a validated checkpoint's team plays one episode: ``n_agents``
+    robots, as the team is scored, from random starts, each episode stopped at ``max_steps`` (so its
+    clean_score's time limit is 600 s on every layout). Fewer than a single robot's 10: a team episode cost
+    2.7 CPU-s (4 K = 2 episodes, 16 k team steps: 10.8 CPU-s) against 1.65 CPU-s a K = 2 iteration, so 5
+    every ``validation_interval`` = 100 iterations cost about 8 % of the training (docs/experiments.md, "What
+    validation costs"). Runs before cabin-v1-val played 2 team episodes on each training layout."""
+    validation_interval: int = 100
+    """Validate every 100 iterations' checkpoint (and the last): team runs are a few hundred iterations."""
     centralised_critic: bool = option(True)
     """The critic also sees the team env's ``state()`` and the robot's index (MAPPO); False: it sees what the
     actor sees (independent PPO with a shared policy)."""

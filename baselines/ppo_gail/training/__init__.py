@@ -21,10 +21,11 @@ Its parts, in the order a run goes through them:
    bar; after each iteration it appends a row to ``metrics.csv``, every ``save_interval`` iterations it
    writes a checkpoint (atomically, ``checkpoints``), and at the end it draws ``curves.png``; ``metrics``
    turns what the runner logs into the rows of ``metrics.csv``.
-3. ``validation.validate_checkpoints``: every checkpoint's policy plays ``validation_episodes`` episodes on
-   each training layout, with seeds the leaderboard does not use (``validation.csv``); then the last
-   checkpoint (or, with ``export="best"``, the best on validation) is exported as the small shipped policy
-   ``policy.pt``.
+3. ``validation.validate_checkpoints``: the policy of every ``validation_interval``-th checkpoint and of the
+   last plays one episode on each of ``validation_episodes`` layouts of cabin-v1-val (``validation_suite``),
+   from random starts with seeds the leaderboard does not use (``validation.csv``, with the headline
+   ``clean_score``); then the last checkpoint (or, with ``export="best"``, the best there) is exported as
+   the small shipped policy ``policy.pt``. Runs before cabin-v1-val validated on their training layouts.
 4. Interrupted runs (Ctrl-C, a crash) keep every finished checkpoint and validation row;
    ``train(..., resume=True)`` continues from the latest checkpoint exactly as the run would have gone on:
    same weights, optimisers, normalisers, ICM and discriminator, the environments back in their episodes

@@ -18,6 +18,9 @@ from cabinbench.baselines.ppo_gail.runner_config import check_algorithm_settings
 
 from cabinbench.sim.rewards import REWARD_PRESETS
 
+VALIDATION_SUITE = "cabin-v1-val"
+"""The only layouts a checkpoint is chosen on (never test, ood or the classic layouts)."""
+
 
 @dataclass
 class TrainConfig:
@@ -114,14 +117,35 @@ class TrainConfig:
     """Existing demonstration ``.npz`` files to use instead of recording new ones."""
     save_interval: int = option(50)
     """Write a checkpoint every this many iterations (and after the last one)."""
-    validation_episodes: int = option(20, metavar="N")
-    """Episodes per training layout on which every checkpoint plays at the end of training, with seeds from
-    ``VALIDATION_SEED`` (``validation.csv``, panel (g) of ``curves.png``; 0: none). With ``suite``: episodes
-    in all, one on each layout of a sample of the suite drawn by ``VALIDATION_SEED``, from a random start (the
-    suites' protocol)."""
+    validation_episodes: int = option(10, metavar="N")
+    """Layouts of cabin-v1-val on each of which a validated checkpoint plays one episode (0: none). The
+    layouts are a sample of ``validation_suite`` drawn by ``VALIDATION_SEED``, episode i from a random start
+    drawn by seed ``VALIDATION_SEED + i``, as the imitation baselines validate; ``validation.csv`` holds a
+    row per checkpoint and layout with the headline ``clean_score``, coverage and success (panel (g) of
+    ``curves.png``). Cost (docs/experiments.md, "What validation costs"): a ppo_gail checkpoint's 20
+    cabin-v1-val episodes (150 k steps, each to its layout's step limit unless the floor is cleaned) took
+    52-73 CPU-s on this 2-core machine, about 29 of its training iterations (2.5 CPU-s each, measured under
+    the same load): 1.45 iterations per episode. 10 layouts every ``validation_interval`` = 200 iterations
+    of the default 800 are 4 rounds, 40 episodes, about 58 iterations: 7 % of the training. With a
+    ``validation_suite`` of None (runs before it existed): episodes per training layout, from its own start,
+    or with ``suite`` one on each layout of a sample of the training suite from a random start."""
+    validation_suite: str | None = VALIDATION_SUITE
+    """Where checkpoints are validated: ``VALIDATION_SUITE``, the only layouts a choice made while training
+    (a checkpoint, a setting, a seed) may read; never cabin-v1-test, cabin-v1-ood or the classic layouts.
+    None: the training layouts (or a sample of the training suite) with the validation seeds, scored on
+    success + coverage, the protocol of the runs before it; a ``config.json`` without this field is one of
+    those (``from_dict`` reads it as None), so that committed records say where they were validated. A run
+    whose episodes end at the exit (``terminate_on_exit``: the study's tracking stage) is not validated on
+    cabin-v1-val: its layouts are single cells with no exit to track to, and their clean_score measures
+    cleaning, not the stage's task (``validation_episodes`` 0, as ``study_config`` sets for both stages:
+    the study chose no checkpoint)."""
+    validation_interval: int = option(200, metavar="N")
+    """Validate the checkpoint of every this many iterations, and the last; a checkpoint is written there
+    too. Runs before ``validation_suite`` validated every checkpoint (``from_dict``: ``save_interval``)."""
     export: str = option("last", choices=("last", "best"))
-    """Which checkpoint ``policy.pt`` holds: "last", or "best" on validation (``validation_score``). The
-    results keep "last"; "best" would reorder the ablations (docs/experiments.md)."""
+    """Which checkpoint ``policy.pt`` holds: "last", or "best": the validated checkpoint with the best mean
+    ``clean_score`` on cabin-v1-val (``training_records.validation_score``; success + coverage for a
+    ``validation_suite`` of None). The committed ablations keep "last" (docs/experiments.md)."""
     threads: int = option(1)
     """torch threads: 1, as on a shared 2-core machine 2 threads spin waiting for each other
     (docs/experiments.md); ``workers`` uses the other cores instead."""
@@ -143,8 +167,6 @@ class TrainConfig:
                 raise ValueError(
                     f"demo_layouts must be 1 to {size} for suite {self.suite}, got {self.demo_layouts}"
                 )
-            if self.validation_episodes > size:
-                raise ValueError(f"validation_episodes must be at most {size} for suite {self.suite}")
         elif not self.layouts:
             self.layouts = list(CELL_LAYOUTS)
         for name in (
@@ -157,8 +179,7 @@ class TrainConfig:
         ):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
-        if self.validation_episodes < 0:
-            raise ValueError(f"validation_episodes must be 0 or more, got {self.validation_episodes}")
+        self.check_validation()
         if self.workers < 0:
             raise ValueError(f"workers must be 0 (every core) or more, got {self.workers}")
         if self.learning_rate_schedule not in LEARNING_RATE_SCHEDULES:
@@ -168,13 +189,37 @@ class TrainConfig:
             )
         if self.export not in ("last", "best"):
             raise ValueError(f'export must be "last" or "best", got {self.export!r}')
+        if self.uses_gail and not self.demonstrations and self.demo_episodes < 1:
+            raise ValueError(f"{self.ablation} learns from demonstrations: demo_episodes must be positive")
+        check_algorithm_settings(self.algorithm)  # before any work: a typo would fail after the envs started
+
+    def check_validation(self) -> None:
+        """The validation fields agree with each other and with the training (``__post_init__``)."""
+        from cabinbench.layouts.suites import get_suite
+
+        if self.validation_suite not in (VALIDATION_SUITE, None):
+            raise ValueError(
+                f"validation_suite must be {VALIDATION_SUITE!r} (or None), got {self.validation_suite!r}"
+            )
+        if self.validation_episodes < 0 or self.validation_interval < 1:
+            raise ValueError(
+                f"validation_episodes must be 0 or more and validation_interval positive, got "
+                f"{self.validation_episodes} and {self.validation_interval}"
+            )
+        sampled = self.validation_suite or self.suite
+        if sampled and self.validation_episodes > len(get_suite(sampled)):
+            raise ValueError(
+                f"validation_episodes must be at most {len(get_suite(sampled))}, the layouts of {sampled}"
+            )
         if self.export == "best" and not self.validation_episodes:
             raise ValueError(
                 'export="best" chooses on the validation episodes: validation_episodes must be positive'
             )
-        if self.uses_gail and not self.demonstrations and self.demo_episodes < 1:
-            raise ValueError(f"{self.ablation} learns from demonstrations: demo_episodes must be positive")
-        check_algorithm_settings(self.algorithm)  # before any work: a typo would fail after the envs started
+        if self.terminate_on_exit and self.validation_suite and self.validation_episodes:
+            raise ValueError(
+                f"episodes that end at the exit (terminate_on_exit: a tracking task) are not validated on "
+                f"{self.validation_suite}, whose layouts have no exit to track to: validation_episodes 0"
+            )
 
     @property
     def cores(self) -> int:
@@ -256,10 +301,12 @@ class TrainConfig:
 
     @property
     def validation_layouts(self) -> list[str]:
-        """The layouts every checkpoint is validated on: the training layouts (``validation_episodes`` each),
-        or a sample of the suite drawn by ``VALIDATION_SEED`` (one episode each)."""
-        if self.suite:
-            return suite_sample(self.suite, self.validation_episodes, VALIDATION_SEED)
+        """The layouts every validated checkpoint plays on: a sample of ``validation_suite`` drawn by
+        ``VALIDATION_SEED`` (one episode each); with none, a sample of the training suite likewise, or the
+        training layouts (``validation_episodes`` each)."""
+        sampled = self.validation_suite or self.suite
+        if sampled:
+            return suite_sample(sampled, self.validation_episodes, VALIDATION_SEED)
         return list(dict.fromkeys(self.layouts))
 
     def to_dict(self) -> dict:
@@ -273,6 +320,9 @@ class TrainConfig:
                 del values[name]
         if not self.demo_random_start:  # its config.json reads as it did before the field existed
             del values["demo_random_start"]
+        if not (self.validation_suite and self.validation_episodes):  # validated as before, or not at all
+            for name in VALIDATION_FIELDS:
+                del values[name]
         return values
 
     @classmethod
@@ -285,6 +335,9 @@ class TrainConfig:
         unknown = sorted(set(values) - known)
         if unknown:
             raise ValueError(f"unknown TrainConfig field(s) {unknown}; known: {sorted(known)}")
+        if "validation_suite" not in values:  # validated on its training layouts, every checkpoint, or not
+            values["validation_suite"] = None
+            values.setdefault("validation_interval", values.get("save_interval", cls.save_interval))
         return cls(**values)
 
 
@@ -334,6 +387,9 @@ class RecurrentTrainConfig(TrainConfig):
 
 SUITE_FIELDS = ("suite", "suite_version", "demo_layouts")
 """What ``to_dict`` records of a run on a suite only."""
+VALIDATION_FIELDS = ("validation_suite", "validation_interval")
+"""What ``to_dict`` records of a run validated on ``validation_suite`` only: a ``config.json`` without them
+predates it (or validates nothing)."""
 CELL_LAYOUTS = ("a320_cell", "a320_tracking_cell")
 """The default training layouts: the study's cleaning and tracking cells."""
 
@@ -353,7 +409,7 @@ LINEAR_DECAY_FINAL = {"learning_rate": 1.0e-10, "clip_param": 0.1, "entropy_coef
 """Where the "linear" schedule ends, at ``iterations``: ML-Agents' ``DecayedValue`` of the learning rate,
 epsilon and beta (ml-agents PR 4318)."""
 
-RESUMABLE_CHANGES = ("iterations", "threads", "save_interval", "export")
+RESUMABLE_CHANGES = ("iterations", "threads", "save_interval", "validation_interval", "export")
 """Fields a resumed run may change (e.g. train further, or export another checkpoint); any other difference to
 the saved config is an error."""
 

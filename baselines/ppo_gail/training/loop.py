@@ -2,7 +2,8 @@
 (or reuses given ``.npz`` files), builds ``RslRlVecEnv(BatchedCoverageEnv(...))`` and rsl-rl's
 ``OnPolicyRunner`` with the ``PPOCuriosityGail`` algorithm, then runs ``runner.learn(1)`` once per iteration
 under a progress bar: a row of ``metrics.csv`` after each, a checkpoint every ``save_interval``; then it
-validates every checkpoint, draws ``curves.png`` and exports ``policy.pt``."""
+validates the checkpoints on cabin-v1-val (``validation_interval``), draws ``curves.png`` and exports
+``policy.pt``."""
 
 from __future__ import annotations
 
@@ -41,6 +42,7 @@ from cabinbench.baselines.ppo_gail.training.metrics import (
 )
 from cabinbench.baselines.ppo_gail.training.validation import read_validation, validate_checkpoints
 
+from cabinbench.executors.local import LocalExecutor
 from cabinbench.training_records import best_checkpoint, plot_curves, read_metrics
 
 
@@ -103,7 +105,7 @@ def run_iterations(
             metrics.append({**row, "train_time": train_time})
             bar.update()
             bar.set_postfix(postfix(row), refresh=False)
-            if iteration % config.save_interval == 0 or iteration == config.iterations:
+            if saves_checkpoint(config, iteration):
                 save_checkpoint(runner, run_dir, iteration, config, train_time)
     except KeyboardInterrupt:
         return iteration, train_time, True
@@ -133,7 +135,8 @@ def conclude(
 
     if not interrupted and config.validation_episodes:
         try:
-            validate_checkpoints(runner, config, run_dir, lambda path: export(path, summary))
+            with LocalExecutor(workers=config.cores) as executor:  # the training envs are closed by now
+                validate_checkpoints(runner, config, run_dir, lambda path: export(path, summary), executor)
         except KeyboardInterrupt:
             interrupted = True
     validation = read_validation(run_dir, config)
@@ -151,6 +154,13 @@ def conclude(
     summary["exported_iteration"] = exported
     policy_path = export(run_dir / POLICY_FILE, summary)
     return TrainResult(run_dir, policy_path, iteration, train_time, summary)
+
+
+def saves_checkpoint(config: TrainConfig, iteration: int) -> bool:
+    """Whether a checkpoint is written after ``iteration``: every ``save_interval`` iterations, where a
+    checkpoint is validated (``validation_interval``) and after the last."""
+    validated = config.validation_episodes and iteration % config.validation_interval == 0
+    return iteration % config.save_interval == 0 or validated or iteration == config.iterations
 
 
 def export_run_policy(runner, config: TrainConfig, obs_config: dict, path: Path, training: dict) -> Path:

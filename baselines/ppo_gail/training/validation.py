@@ -1,9 +1,11 @@
-"""Validation of every checkpoint: its policy plays episodes on the training layouts (or a sample of the
-suite) with seeds the leaderboard does not use, one row per checkpoint and layout in ``validation.csv``."""
+"""Validation of checkpoints: a checkpoint's policy plays episodes with seeds the leaderboard does not use,
+one row per checkpoint and validation layout in ``validation.csv``. ``validation_rows`` plays them for every
+trainer (this one's and ``baselines.imitation``'s), so that both validate alike."""
 
 from __future__ import annotations
 
 import csv
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +21,107 @@ from cabinbench.baselines.ppo_gail.training.config import (
 from cabinbench.training_records import read_metrics
 
 VALIDATION_COLUMNS = ("iteration", "layout", "episodes", "coverage", "success", "cells_cleared", "time")
-"""``validation.csv``: one row per checkpoint and training layout, the means over its validation episodes."""
+"""``validation.csv`` of bc and dagger, and of the runs validated on their training layouts (before
+``TrainConfig.validation_suite``): one row per checkpoint and layout, the means over its episodes there."""
+SCORED_COLUMNS = (*VALIDATION_COLUMNS, "clean_score")
+"""``validation.csv`` of the runs validated on ``validation_suite``: the headline score too, on which
+``export="best"`` chooses (``training_records.validation_score``)."""
+
+
+@dataclass(frozen=True)
+class Play:
+    """One validation episode: on ``layout`` with ``seed``, entering the means of ``validation.csv``'s row
+    ``row``."""
+
+    row: str
+    layout: str
+    seed: int
+
+
+@dataclass(frozen=True)
+class Player:
+    """Who plays the validation episodes: the policy file ``policy`` run by ``baseline`` in envs of
+    ``env_kwargs``, with further ``run_episode`` keywords ``options`` (a team's ``n_agents``)."""
+
+    baseline: str
+    policy: str
+    env_kwargs: dict
+    options: dict = field(default_factory=dict)
+
+
+def one_episode_each(layouts: list[str], row: str | None = None) -> list[Play]:
+    """One episode on each of ``layouts``, episode i with seed ``VALIDATION_SEED + i``, each its own row
+    (or all in ``row``)."""
+    return [Play(row or name, name, VALIDATION_SEED + index) for index, name in enumerate(layouts)]
+
+
+def validation_plays(config: TrainConfig) -> list[Play]:
+    """The episodes every validated checkpoint of ``config`` plays: one on each layout of
+    ``validation_layouts`` (a sample of ``validation_suite``, or, validated on the training suite, a sample
+    of it in one row named after it), or ``validation_episodes`` on each training layout."""
+    if config.validation_suite or config.suite:
+        return one_episode_each(config.validation_layouts, None if config.validation_suite else config.suite)
+    return [
+        Play(name, name, VALIDATION_SEED + index)
+        for name in config.validation_layouts
+        for index in range(config.validation_episodes)
+    ]
+
+
+def validation_env_kwargs(config: TrainConfig) -> dict:
+    """The validation episodes' env settings: a random start where the episodes are one per layout (as
+    ``run --suite`` plays a suite), else each layout's own start; the run's step limit if it sets one."""
+    random_start = bool(config.validation_suite or config.suite)
+    return {
+        **({"random_start": True} if random_start else {}),
+        **({"max_steps": config.max_steps} if config.max_steps else {}),
+    }
+
+
+def play_validation_episode(job: tuple[Player, Play]) -> dict:
+    """The record of one validation episode, with its ``row`` and ``seed`` (run in a worker, too)."""
+    import torch
+
+    from cabinbench.episodes import run_episode
+
+    player, play = job
+    torch.set_num_threads(1)
+    record = run_episode(
+        player.baseline,
+        play.layout,
+        play.seed,
+        env_kwargs=player.env_kwargs,
+        config={"checkpoint": player.policy},
+        **player.options,
+    )[0]
+    return {**record, "row": play.row, "seed": play.seed}
+
+
+def validation_rows(
+    iteration: int, plays: list[Play], player: Player, executor, columns: tuple[str, ...]
+) -> list[dict]:
+    """Checkpoint ``iteration``'s rows of ``validation.csv``: ``player`` plays ``plays`` (on ``executor``'s
+    workers); per row its episodes and the means of ``columns``' metrics over them, rows in the order of the
+    plays."""
+    order = {(play.row, play.seed): position for position, play in enumerate(plays)}
+    records = sorted(
+        executor.map(play_validation_episode, [(player, play) for play in plays]),
+        key=lambda record: order[record["row"], record["seed"]],
+    )
+    rows: dict[str, list[dict]] = {}
+    for record in records:
+        rows.setdefault(record["row"], []).append(record)
+    return [
+        {
+            "iteration": iteration,
+            "layout": row,
+            "episodes": len(played),
+            **{
+                metric: float(np.mean([float(record[metric]) for record in played])) for metric in columns[3:]
+            },
+        }
+        for row, played in rows.items()
+    ]
 
 
 def read_validation(run_dir: Path, config: TrainConfig) -> list[dict]:
@@ -29,68 +131,41 @@ def read_validation(run_dir: Path, config: TrainConfig) -> list[dict]:
     return [row for row in rows if int(row["iteration"]) <= config.iterations]
 
 
-def validate_checkpoints(runner, config: TrainConfig, run_dir: Path, export) -> None:
-    """Play ``config.validation_episodes`` episodes on each training layout (sequential protocol, the layout's
-    own start, sampled actions: as the leaderboard plays them) with the policy of every checkpoint up to
-    ``config.iterations``; with a suite, one episode on each of its ``validation_layouts`` from a random start
-    (as ``run --suite`` plays them), one row named after the suite. Each checkpoint's policy file is exported
-    (by ``export(path)``) to ``validation/policy_<iteration>.pt``, and its rows are appended to
-    ``validation.csv`` as soon as they are measured: a resumed run validates only the checkpoints not done
-    yet."""
-    from cabinbench.episodes import run_episode
-    from cabinbench.layouts.resolve import load_layout
+def validated_iterations(config: TrainConfig, checkpoints: list[int]) -> list[int]:
+    """The checkpoints (their iterations) that are validated: every ``validation_interval`` iterations and
+    the last, up to ``config.iterations``."""
+    return [
+        iteration
+        for iteration in checkpoints
+        if iteration <= config.iterations
+        and (iteration % config.validation_interval == 0 or iteration == config.iterations)
+    ]
 
+
+def validate_checkpoints(runner, config: TrainConfig, run_dir: Path, export, executor) -> None:
+    """Validate every checkpoint of ``validated_iterations``: its policy, exported (by ``export(path)``) to
+    ``validation/policy_<iteration>.pt``, plays ``validation_plays(config)`` (sampled actions: as the
+    leaderboard plays them), and its rows are appended to ``validation.csv`` as soon as they are measured: a
+    resumed run validates only the checkpoints not done yet."""
     path = run_dir / VALIDATION_FILE
     rows = read_metrics(path) if path.exists() else []
     done = {int(row["iteration"]) for row in rows}
-    env_kwargs = {"max_steps": config.max_steps} if config.max_steps else {}
-    if config.suite:  # one row: one episode on each layout of the sample, from a random start
-        sample = [load_layout(name) for name in config.validation_layouts]
-        episodes = {config.suite: [(layout, VALIDATION_SEED + index) for index, layout in enumerate(sample)]}
-        env_kwargs["random_start"] = True
-    else:  # a row per training layout, validation_episodes episodes each
-        episodes = {}
-        for name in config.validation_layouts:
-            layout = load_layout(name)
-            episodes[name] = [
-                (layout, VALIDATION_SEED + index) for index in range(config.validation_episodes)
-            ]
-    checkpoints = sorted((run_dir / CHECKPOINT_DIR).glob("model_*.pt"))
+    columns = SCORED_COLUMNS if config.validation_suite else VALIDATION_COLUMNS
+    checkpoints = {
+        int(path.stem.split("_")[1]): path for path in (run_dir / CHECKPOINT_DIR).glob("model_*.pt")
+    }
     with open(path, "a", newline="") as file:
-        writer = csv.DictWriter(file, VALIDATION_COLUMNS)
+        writer = csv.DictWriter(file, columns)
         if not rows:
             writer.writeheader()
-        for checkpoint in checkpoints:
-            iteration = int(checkpoint.stem.split("_")[1])
-            if iteration in done or iteration > config.iterations:
+        for iteration in validated_iterations(config, sorted(checkpoints)):
+            if iteration in done:
                 continue
-            load_checkpoint(runner, checkpoint)
+            load_checkpoint(runner, checkpoints[iteration])
             policy = export(run_dir / VALIDATION_DIR / f"policy_{iteration:06d}.pt")
-            measured = []
-            for name, played in episodes.items():
-                records = [
-                    run_episode(
-                        config.policy_name,
-                        layout,
-                        seed,
-                        env_kwargs=env_kwargs,
-                        config={"checkpoint": str(policy)},
-                        **config.episode_options,
-                    )[0]
-                    for layout, seed in played
-                ]
-                measured.append(
-                    {
-                        "iteration": iteration,
-                        "layout": name,
-                        "episodes": len(records),
-                        **{
-                            metric: float(np.mean([record[metric] for record in records]))
-                            for metric in VALIDATION_COLUMNS[3:]
-                        },
-                    }
-                )
-            writer.writerows(
-                measured
-            )  # a checkpoint's rows together: an interruption never leaves half of them
+            player = Player(
+                config.policy_name, str(policy), validation_env_kwargs(config), config.episode_options
+            )
+            # a checkpoint's rows together: an interruption never leaves half of them
+            writer.writerows(validation_rows(iteration, validation_plays(config), player, executor, columns))
             file.flush()
