@@ -1,13 +1,11 @@
 """``train`` writes the ONNX twin of every policy it exports (``policy.pt`` -> ``policy.onnx``) for the
 ``onnx`` baseline, ``--ship`` and ``--keep`` copy it with the policy, and the twin acts as the torch policy
-does; a recurrent policy, whose memory a twin cannot carry, says so and leaves none."""
+does, a recurrent policy's too (its memory's state an input and an output of the model)."""
 
 from __future__ import annotations
 
-import pytest
-from cabinbench.baselines.onnx.export import NoOnnxTwin, export_onnx
+from cabinbench.baselines.onnx import OnnxPolicy
 from cabinbench.baselines.ppo_gail import cli
-from cabinbench.baselines.ppo_gail.policy import read_policy_file
 
 from cabinbench.commands.train import main as train_main
 from tests import test_imitation, test_recurrent
@@ -37,16 +35,11 @@ def test_an_imitation_policy_has_a_twin_that_takes_its_mean_action_as_it_does(tm
     assert len(gaps) == PARITY_STEPS and max(gaps) < ACTION_GAP
 
 
-def test_a_recurrent_policy_has_no_twin_and_training_says_why(tmp_path, capsys):
+def test_a_recurrent_policys_twin_carries_its_memory_from_step_to_step(tmp_path):
     run_dir = tmp_path / "lstm"
-    (run_dir / "policy.onnx").parent.mkdir()
-    (run_dir / "policy.onnx").write_bytes(b"a twin of an earlier policy")
     assert cli.main(["--baseline", "ppo_lstm", *test_recurrent.TINY, "--run-dir", str(run_dir)]) == 0
-    said = capsys.readouterr().out
-    assert (
-        f"onnx twin: none: {run_dir / 'policy.pt'}: a recurrent policy (ppo_lstm) carries its memory" in said
-    )
-    assert not (run_dir / "policy.onnx").exists()
-    assert read_policy_file(run_dir / "policy.pt")["memory"]
-    with pytest.raises(NoOnnxTwin, match="the onnx baseline runs memoryless policies"):
-        export_onnx(run_dir / "policy.pt", tmp_path / "twin.onnx")
+    twin = OnnxPolicy(file=str(run_dir / "policy.onnx"))
+    inputs = [(given.name, given.shape) for given in twin.model.session.get_inputs()]
+    assert inputs == [("observation", [1, 386]), ("hidden", [1, 1, 64]), ("cell", [1, 1, 64])]
+    gaps = twin_action_gaps(run_dir / "policy.pt", run_dir / "policy.onnx")  # both sampled, from zero state
+    assert len(gaps) == PARITY_STEPS and max(gaps) < ACTION_GAP

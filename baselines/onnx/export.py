@@ -8,8 +8,9 @@ normaliser + MLP) is exported with ``torch.onnx.export`` as ``observation [batch
 default), ablation, env config and training summary go into the model's ``metadata_props`` (see
 :mod:`.policy`), so that the ``onnx`` baseline runs it as the torch policy runs, without torch.
 
-``train`` writes every run's twin beside its policy file (:func:`export_twin`). A recurrent actor
-(``ppo_lstm``) has none: the ``onnx`` baseline runs memoryless policies, one observation to one action.
+``train`` writes every run's twin beside its policy file (:func:`export_twin`). A recurrent actor's
+(``ppo_lstm``) takes its memory's state as further inputs and gives the next state as further outputs
+(:mod:`.recurrent`), which the ``onnx`` baseline carries from step to step.
 """
 
 from __future__ import annotations
@@ -50,32 +51,34 @@ def sampled_by_default(ablation: str) -> bool:
     return inspect.signature(baseline_class(ablation)).parameters["stochastic"].default
 
 
-class NoOnnxTwin(ValueError):
-    """A policy file the ``onnx`` baseline could not run as its twin: a recurrent actor's memory."""
-
-
 def export_onnx(policy_file: str | os.PathLike, onnx_file: str | os.PathLike) -> Path:
     """Write the ONNX twin of ``policy_file`` to ``onnx_file``; returns its path. The batch axis is
-    dynamic."""
+    dynamic. A recurrent actor's memory state is an input and an output (:mod:`.recurrent`; torch's
+    exporter fixes its batch at one robot)."""
     import onnx
     import torch
     from cabinbench.baselines.ppo_gail.policy import read_policy_file
 
     policy = read_policy_file(policy_file)
+    batch = torch.export.Dim("batch")
     if policy.get("memory"):
-        raise NoOnnxTwin(
-            f"{policy_file}: a recurrent policy ({policy['ablation']}) carries its memory from step to step; "
-            "the onnx baseline runs memoryless policies"
-        )
-    network = policy["network"]
-    example = torch.zeros(1, policy["actor"]["observation_size"])
+        from cabinbench.baselines.onnx.recurrent import RecurrentActor
+
+        network = RecurrentActor(policy)
+        states = network.state_names
+        inputs, outputs = [INPUT, *states], [OUTPUT, *(f"{name}_out" for name in states)]
+        examples = (torch.zeros(1, policy["memory"]["input_size"]), *network.example_state())
+        batch_axes = ({0: batch}, *({1: batch} for _ in states))
+    else:
+        network, inputs, outputs = policy["network"], [INPUT], [OUTPUT]
+        examples, batch_axes = (torch.zeros(1, policy["actor"]["observation_size"]),), ({0: batch},)
     with quiet_exporter():
         program = torch.onnx.export(
             network,
-            (example,),
-            input_names=[INPUT],
-            output_names=[OUTPUT],
-            dynamic_shapes=({0: torch.export.Dim("batch")},),
+            examples,
+            input_names=inputs,
+            output_names=outputs,
+            dynamic_shapes=batch_axes,
             dynamo=True,
             verbose=False,
         )
@@ -89,13 +92,15 @@ def export_onnx(policy_file: str | os.PathLike, onnx_file: str | os.PathLike) ->
 @contextlib.contextmanager
 def quiet_exporter() -> Iterator[None]:
     """torch's exporter without its notes on what does not concern a policy (torchvision's operators not
-    installed, torch's own deprecations), which would bury ``train``'s last lines."""
+    installed, torch's own deprecations and notes on the RNN's weights), which would bury ``train``'s last
+    lines; the checker and the twins' tests watch what matters."""
     exporter = logging.getLogger("torch.onnx")
     level = exporter.level
     exporter.setLevel(logging.ERROR)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", FutureWarning)
+            warnings.simplefilter("ignore", UserWarning)
             yield
     finally:
         exporter.setLevel(level)
@@ -103,15 +108,12 @@ def quiet_exporter() -> Iterator[None]:
 
 def export_twin(policy_file: str | os.PathLike) -> str:
     """Write the ONNX twin of a trained ``policy.pt`` beside it as ``policy.onnx`` (``--ship`` and ``--keep``
-    copy it with the policy); what was done, in a line. A policy without a twin leaves none there."""
+    copy it with the policy); what was done, in a line."""
     twin = Path(policy_file).with_suffix(".onnx")
     try:
         return f"{export_onnx(policy_file, twin)} (run it with --baseline onnx)"
-    except NoOnnxTwin as error:
-        twin.unlink(missing_ok=True)  # a twin of an earlier export would not be this policy's
-        return f"none: {error}"
     except (
         ModuleNotFoundError
     ) as error:  # onnxscript and onnx come with rsl-rl; a trimmed install may lack them
-        twin.unlink(missing_ok=True)
+        twin.unlink(missing_ok=True)  # a twin of an earlier export would not be this policy's
         return f"none: writing it needs {error.name}: pip install onnx onnxscript"

@@ -3,7 +3,10 @@
     python -m cabinbench.run --baseline onnx --config '{"file": "policy.onnx"}' --layout a320_cell
 
 The model maps observations ``[batch, D]`` (float32, or float64 if its input says so) to mean
-actions ``[batch, 2]`` in [-1, 1] (linear, angular); its first input and first output are used.
+actions ``[batch, 2]`` in [-1, 1] (linear, angular): its first input and first output. A recurrent
+model (an LSTM's, a GRU's) takes its memory's state as further inputs and gives the next state as the
+further outputs, in the same order; the state starts at zero at each episode (``export`` writes a
+``ppo_lstm`` policy so: ``observation, hidden, cell -> action_mean, hidden_out, cell_out``).
 What the model's ``metadata_props`` hold (``cabinbench.baselines.onnx.export`` writes them from
 a torch policy file) is used as the torch policy uses it:
 
@@ -70,6 +73,16 @@ class OnnxModel:
                 "takes float observations [batch, D]"
             )
         self.input_name, self.dtype = model_input.name, INPUT_TYPES[model_input.type]
+        self.state_inputs = self.session.get_inputs()[1:]  # a recurrent model's memory, fed back each step
+        state_outputs = len(self.session.get_outputs()) - 1
+        if state_outputs < len(self.state_inputs) or any(
+            i.type not in INPUT_TYPES for i in self.state_inputs
+        ):
+            raise BaselineError(
+                f"{path}: {len(self.state_inputs)} input(s) after the observation, {state_outputs} output(s) "
+                "after the action; a recurrent policy takes float state inputs and gives the next state as "
+                "outputs, one for each, in their order"
+            )
         width = model_input.shape[1]
         self.input_width = width if isinstance(width, int) else None
         self.metadata = {}
@@ -85,10 +98,23 @@ class OnnxModel:
         if "format" in self.metadata and self.metadata["format"] != FORMAT:
             raise BaselineError(f"{path}: metadata format {self.metadata['format']!r} is not {FORMAT!r}")
 
-    def mean_action(self, observation: np.ndarray) -> np.ndarray:
-        """The model's output for one observation, as float64 (A,)."""
+    def initial_state(self) -> list[np.ndarray]:
+        """The zero state of an episode's start, for one robot (none for a memoryless model)."""
+        return [
+            np.zeros([size if isinstance(size, int) else 1 for size in given.shape], INPUT_TYPES[given.type])
+            for given in self.state_inputs
+        ]
+
+    def step(self, observation: np.ndarray, state: list[np.ndarray]) -> tuple[np.ndarray, list[np.ndarray]]:
+        """The model's output for one observation and the state before it, as float64 (A,), and the state
+        after it."""
         batch = np.asarray(observation, dtype=self.dtype).reshape(1, -1)
-        return np.asarray(self.session.run(None, {self.input_name: batch})[0], dtype=np.float64).reshape(-1)
+        feed = {
+            self.input_name: batch,
+            **{given.name: value for given, value in zip(self.state_inputs, state)},
+        }
+        outputs = self.session.run(None, feed)
+        return np.asarray(outputs[0], dtype=np.float64).reshape(-1), outputs[1 : 1 + len(state)]
 
 
 def mismatched_settings(trained: dict, env: dict) -> list[str]:
@@ -132,6 +158,7 @@ class OnnxPolicy(Baseline):
         default = self.model.metadata.get("stochastic", has_std)
         self.stochastic = default if stochastic is None else stochastic
         self.rng: np.random.Generator | None = None
+        self.state: list[np.ndarray] = []
 
     @property
     def env_options(self) -> dict:
@@ -161,12 +188,13 @@ class OnnxPolicy(Baseline):
                 "run the env with the observation settings it was trained with (its env_options), or export "
                 "it again"
             )
+        self.state = self.model.initial_state()
         if self.stochastic:
             self.rng = np.random.default_rng([context.seed, context.agent])
             self.action_std = np.asarray(self.model.metadata["action_std"], dtype=np.float64)
 
     def act(self, observation: np.ndarray, info: dict) -> np.ndarray:
-        action = self.model.mean_action(observation)
+        action, self.state = self.model.step(observation, self.state)
         if action.shape != (2,):
             raise BaselineError(
                 f"{self.path}: the model gives {action.size} numbers; a policy gives 2 (linear, angular)"

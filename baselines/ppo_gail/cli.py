@@ -36,8 +36,8 @@ suite instead, through ``CabinBench/Suite-v0``: every env draws a new layout of 
 expert demonstrates on ``--demo-layouts`` of its layouts, and the policy ships as ``<baseline>_suite``
 (``ppo_gail_suite``). The run lives in ``--run-dir`` (default ``runs/train/<baseline>__seed<S>``): config,
 demonstrations, checkpoints, ``metrics.csv``, ``curves.png``, the exported ``policy.pt`` and its ONNX twin
-``policy.onnx`` for the ``onnx`` baseline (every trainer's but ``ppo_lstm``'s: its memory is no part of a
-twin). ``--resume`` continues an interrupted run from its latest checkpoint, with the saved config
+``policy.onnx`` for the ``onnx`` baseline (``ppo_lstm``'s with its memory's state as an input and an
+output). ``--resume`` continues an interrupted run from its latest checkpoint, with the saved config
 (``--iterations`` may raise the total). At the end the policy of every ``--validation-interval``-th checkpoint
 and of the last plays one episode on each of ``--validation-episodes`` layouts of cabin-v1-val from a random
 start (``validation.csv`` in the run directory, with the headline clean_score); ``--export best`` exports the
