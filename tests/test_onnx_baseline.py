@@ -166,3 +166,17 @@ def test_a_bad_onnx_file_is_one_line_naming_it(tmp_path, contents, problem):
     with pytest.raises(BaselineError) as raised:
         OnnxPolicy(file=str(path))
     assert str(raised.value).startswith(f"{path}: {problem}") and "\n" not in str(raised.value)
+
+
+def test_a_model_with_state_inputs_must_give_the_next_state(tmp_path):
+    """A recurrent model's state goes in and comes out again; one that only takes it is refused in a line."""
+    path = forward_model(tmp_path / "forward.onnx", 8)
+    model = onnx.load(path)
+    model.graph.input.append(onnx.helper.make_tensor_value_info("hidden", onnx.TensorProto.FLOAT, [1, 1, 4]))
+    onnx.save(model, path)
+    with pytest.raises(BaselineError) as raised:
+        OnnxPolicy(file=str(path))
+    assert str(raised.value) == (
+        f"{path}: 1 input(s) after the observation, 0 output(s) after the action; a recurrent policy takes "
+        "float state inputs and gives the next state as outputs, one for each, in their order"
+    )
