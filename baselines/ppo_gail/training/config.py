@@ -122,11 +122,11 @@ class TrainConfig:
     layouts are a sample of ``validation_suite`` drawn by ``VALIDATION_SEED``, episode i from a random start
     drawn by seed ``VALIDATION_SEED + i``, as the imitation baselines validate; ``validation.csv`` holds a
     row per checkpoint and layout with the headline ``clean_score``, coverage and success (panel (g) of
-    ``curves.png``). Cost (docs/experiments.md, "What validation costs"): a ppo_gail checkpoint's 20
+    ``curves.png``). Cost (docs/experiments.md, "What validation costs"): the shipped ppo_gail's 20
     cabin-v1-val episodes (150 k steps, each to its layout's step limit unless the floor is cleaned) took
-    52-73 CPU-s on this 2-core machine, about 29 of its training iterations (2.5 CPU-s each, measured under
-    the same load): 1.45 iterations per episode. 10 layouts every ``validation_interval`` = 200 iterations
-    of the default 800 are 4 rounds, 40 episodes, about 58 iterations: 7 % of the training. With a
+    42-73 CPU-s on this 2-core machine, against 2.5 CPU-s a training iteration under the same load: 0.8-1.45
+    iterations per episode. 10 layouts every ``validation_interval`` = 200 iterations of the default 800 are
+    4 rounds, 40 episodes, 34-58 iterations: 4-7 % of the training. With a
     ``validation_suite`` of None (runs before it existed): episodes per training layout, from its own start,
     or with ``suite`` one on each layout of a sample of the training suite from a random start."""
     validation_suite: str | None = VALIDATION_SUITE
