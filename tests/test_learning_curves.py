@@ -36,14 +36,14 @@ BC += ["--max-steps", "60", "--epochs", "2", "--validation-episodes", "2", "--wo
 @pytest.fixture(scope="module")
 def trained(tmp_path_factory) -> Path:
     """``results/training`` of a folder where ppo trained seed 0 (``--ship``) and seed 1 (``--keep``), and
-    bc seed 0 (``--keep``), each for 2 iterations on tiny settings."""
+    bc seed 0 (``--ship``), each for 2 iterations on tiny settings."""
     folder = tmp_path_factory.mktemp("trained")
     with pytest.MonkeyPatch.context() as patch:
         patch.chdir(folder)
         (folder / "checkpoints").mkdir()
         assert train_main([*PPO, "--run-dir", "ppo0", "--ship", "--ship-dir", "checkpoints"]) == 0
         assert train_main([*PPO, "--run-dir", "ppo1", "--seed", "1", "--keep"]) == 0
-        assert train_main([*BC, "--run-dir", "bc0", "--keep"]) == 0
+        assert train_main([*BC, "--run-dir", "bc0", "--ship", "--ship-dir", "checkpoints"]) == 0
     return folder / "results" / "training"
 
 
@@ -76,11 +76,11 @@ def test_each_run_gives_its_seed_validated_iterations_and_env_steps(trained):
 
     bc = curves[curves["baseline"] == "bc"]
     assert list(zip(bc["seed"], bc["iteration"])) == [(0, 1), (0, 2)]
-    steps = [int(row["steps"]) for row in read_metrics(trained / "bc" / "seed0" / "metrics.csv")]
+    steps = [int(row["steps"]) for row in read_metrics(trained / "bc" / "metrics.csv")]
     assert list(bc["env_steps"]) == [steps[0], steps[0] + steps[1]]  # every round collected so far
     assert 0 < steps[0] <= 2 * 60
     assert set(bc["validation_layouts"]) == {"cabin-v1-val (2 layouts)"}
-    assert set(bc["metric"]) == {validated_on(trained / "bc" / "seed0")[1]}
+    assert set(bc["metric"]) == {validated_on(trained / "bc")[1]}
 
 
 def test_csv_figure_and_leaderboard_section_name_the_seeds_and_validation_layouts(trained, tmp_path):
@@ -97,11 +97,15 @@ def test_csv_figure_and_leaderboard_section_name_the_seeds_and_validation_layout
     ppo_layouts, ppo_metric = validated_on(trained / "ppo")
     checkpoints = written[written["seed"] == 1]["iteration"].nunique()
     assert f"| `ppo` | 0, 1 (2) | {ppo_layouts} | {ppo_metric} | {checkpoints} | 0.00 M |" in board
-    bc_metric = validated_on(trained / "bc" / "seed0")[1]
+    bc_metric = validated_on(trained / "bc")[1]
     assert f"| `bc` | 0 (1) | cabin-v1-val (2 layouts) | {bc_metric} | 2 |" in board
     # runs validated on their training layouts are named as such; bc, on cabin-v1-val, is not
     on_own_layouts = "`ppo` validated on layouts they trained on" in board
     assert on_own_layouts == (ppo_layouts == "training layouts a320_cell") and "`bc` validated" not in board
+    # bc's records hold no rsl-rl losses: it has learning curves, and no per-run training figure
+    assert (out / "figures" / "training__ppo.png").is_file() and not (
+        out / "figures" / "training__bc.png"
+    ).exists()
     # the figure: drawn, and the same records draw the same bytes
     figure = out / "figures" / CURVES_FIGURE
     first = figure.read_bytes()

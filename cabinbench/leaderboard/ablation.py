@@ -69,6 +69,8 @@ def ablation_signals(training: Path) -> dict[str, dict[str, bool]]:
     signals = {}
     for path in sorted(training.glob("*/config.json")):
         config = json.loads(path.read_text(encoding="utf-8"))
+        if not all(name in config for name in SIGNALS):  # bc and dagger: no reward signals to ablate
+            continue
         signals[path.parent.name] = {name: bool(config[name]) for name in SIGNALS}
     return dict(sorted(signals.items(), key=lambda item: (item[1]["use_gail"], item[1]["use_curiosity"])))
 

@@ -31,7 +31,7 @@ from cabinbench.records import safe_name
 from cabinbench.sim.physics import TIME_STEP
 from cabinbench.sim.render import COVERED, FLOOR, OBSTACLE, ROBOT_COLOURS
 from cabinbench.stats import Summary, mean_ci
-from cabinbench.training_records import plot_curves, read_metrics
+from cabinbench.training_records import CURVE_PANELS, plot_curves, read_metrics
 
 PNG_METADATA = {"Software": None}  # keeps committed figures free of the matplotlib version string
 CURVE_POINTS = 200
@@ -182,16 +182,19 @@ def makespan_figure(groups: list[tuple[dict, pd.DataFrame]], path: Path) -> bool
 
 
 def training_figures(training: Path, folder: Path) -> list[Path]:
-    """``training__<baseline>.png`` for every ``<training>/<baseline>/metrics.csv`` (with its
-    ``validation.csv``, if any)."""
+    """``training__<baseline>.png`` for every ``<training>/<baseline>/metrics.csv`` of an rsl-rl run (with its
+    ``validation.csv``, if any). bc and dagger record no such losses (their curves: the learning curves)."""
     written = []
     for metrics in sorted(training.glob("*/metrics.csv")):
+        rows = read_metrics(metrics)
+        if rows and not {column for column, _ in CURVE_PANELS} <= rows[0].keys():
+            continue
         config = json.loads((metrics.parent / "config.json").read_text(encoding="utf-8"))
         path = folder / f"training__{safe_name(metrics.parent.name)}.png"
         validation = metrics.parent / "validation.csv"
         team = f", K = {config['n_agents']}" if "n_agents" in config else ""  # a team trainer's
         plot_curves(
-            read_metrics(metrics),
+            rows,
             path,
             title=f"{metrics.parent.name} on {' + '.join(config['layouts'])}{team}, "
             f"seed {config['seed']}: training curves",
