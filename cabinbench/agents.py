@@ -69,6 +69,9 @@ class Baseline:
     trainer: ClassVar[str | None] = None
     """``package.module:function`` taking the ``train`` command's arguments (a list of strings) and returning
     its exit status; None for a baseline that does not learn."""
+    config_files: ClassVar[tuple[str, ...]] = ()
+    """The settings of its config that name files an episode reads (a plan, a policy): a submission carries
+    them, and its replay reads the carried copies (:mod:`cabinbench.leaderboard.submission_files`)."""
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)

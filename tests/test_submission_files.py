@@ -147,3 +147,15 @@ def test_a_plan_per_layout_names_a_missing_layout_in_one_line(tmp_path):
         BaselineError, match=r"^--config file: no path for layout full_cabin \(paths for a320"
     ):
         baseline.checked_paths(load_layout("full_cabin"), 1)
+
+
+def test_a_learned_policy_submission_carries_its_checkpoint(tmp_path, monkeypatch, capsys):
+    work = tmp_path / "submitter"
+    work.mkdir()
+    shutil.copy(CHECKPOINT_DIR / "ppo.pt", work / "mine.pt")
+    submission = submitted(work, "ppo", {"checkpoint": "mine.pt"}, monkeypatch)
+    assert set(json.loads(submission.read_text())["files"]) == {"mine.pt"}
+    (work / "mine.pt").unlink()
+    monkeypatch.chdir(tmp_path)
+    assert leaderboard_main(tmp_path, "--verify", str(submission), "--episodes", "1") == 0
+    assert "1 of 7" in capsys.readouterr().out

@@ -141,8 +141,6 @@ class OnnxPolicy(Baseline):
 
     name = "onnx"
     config_files = ("file",)
-    """The setting that names the file an episode reads: a submission carries it, and its replay reads it
-    (:mod:`cabinbench.leaderboard.submissions`)."""
 
     def __init__(self, file: str, stochastic: bool | None = None):
         if not isinstance(stochastic, (bool, type(None))):  # bool("no") is True

@@ -42,8 +42,6 @@ class PathBaseline(Boustrophedon):
 
     name = "path"
     config_files = ("file",)
-    """The setting that names the files an episode reads: a submission carries them, and its replay reads
-    them (:mod:`cabinbench.leaderboard.submissions`)."""
     export_plan = staticmethod(export_plan)
     """:func:`~.export.export_plan`, reachable through the registry (``baseline_class("path")``) by
     ``run --export-path``, which may not import a baseline."""

@@ -282,6 +282,7 @@ class LearnedPolicy(Baseline):
 
     name = "learned_policy"
     trainer = "cabinbench.baselines.ppo_gail.cli:main"
+    config_files = ("checkpoint",)
     ablation = ""
 
     def __init__(
@@ -398,6 +399,7 @@ class PPOGailStudy(Baseline):
 
     name = "ppo_gail_study"
     trainer = "cabinbench.baselines.ppo_gail.cli:main"
+    config_files = ("cleaning", "tracking")
 
     def __init__(
         self,
