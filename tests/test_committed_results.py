@@ -75,8 +75,8 @@ def main_command_statement(board: pd.DataFrame, shipped_config: dict) -> str:
         )
     else:
         chosen = (
-            "Seed 0 was picked as the best of them on `full_cabin` itself, before the seed to ship was fixed "
-            "in advance and checkpoints chosen on `cabin-v1-val` alone, so it is no typical seed"
+            "Seed 0 was picked as the best of seeds 0-2 on `full_cabin` itself, before the seed to ship was "
+            "fixed in advance and checkpoints chosen on `cabin-v1-val` alone, so it is no typical seed"
         )
     return (
         f"It runs seed 0 of `ppo_gail`'s {count} training seeds, the policy the package ships. {chosen}: on "
