@@ -5,7 +5,8 @@
 # (results/training/ppo_gail_suite/seed<S>/). Budget: 400 iterations of 64 envs x 64 steps (1.6 M steps), half the
 # single-cell ppo_gail's 800, so that the three seeds fit one session's core time (24-31 minutes each, validation
 # included, on this shared 2-core machine); the expert demonstrates once on each of 8 suite layouts (the planner is deterministic: a repeat
-# adds nothing) and every checkpoint is validated on 10 suite layouts. An interrupted seed continues with the same
+# adds nothing); the checkpoints of iterations 200 and 400 play 10 layouts of cabin-v1-val and the better is exported
+# (--export best). An interrupted seed continues with the same
 # command: a run directory with checkpoints is resumed.
 # Usage: bash scripts/train_suite_policies.sh [SEED ...]   (from the repository root; default seeds 0 1 2), then
 # bash scripts/make_results.sh learned to score them (its generalisation-gap runs).
@@ -17,7 +18,7 @@ for seed in $seeds; do
   resume=""
   if [ -d "$run_dir/checkpoints" ]; then resume=--resume; fi
   python -m cabinbench.train --baseline ppo_gail --suite cabin-v1-train --seed "$seed" --iterations 400 \
-    --demo-layouts 8 --demo-episodes 1 --validation-episodes 10 --threads 1 --save-interval 50 \
+    --demo-layouts 8 --demo-episodes 1 --validation-episodes 10 --export best --threads 1 --save-interval 50 \
     --run-dir "$run_dir" $resume $install --no-progress
   echo "seed $seed finished at $(date -u +%H:%M:%S)"
 done

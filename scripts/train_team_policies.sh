@@ -26,7 +26,7 @@ for seed in $seeds; do
   if [ "$seed" = 0 ]; then install=--ship; else install=--keep; fi
   run_dir=runs/train/ppo_gail_team__seed$seed
   python -m cabinbench.train --baseline ppo_gail_team --layout full_cabin --agents 4 --seed "$seed" \
-    --iterations 100 --save-interval 25 --export best --init-policy "$stage1/policy.pt" \
+    --iterations 100 --save-interval 25 --validation-interval 25 --export best --init-policy "$stage1/policy.pt" \
     --algorithm '{"entropy_coef": 0.0, "gail_strength": 0.02}' --run-dir "$run_dir" $(resume_flag "$run_dir") \
     $install --no-progress
   echo "seed $seed finished at $(date -u +%H:%M:%S)"

@@ -145,7 +145,8 @@ class TrainConfig:
     export: str = option("last", choices=("last", "best"))
     """Which checkpoint ``policy.pt`` holds: "last", or "best": the validated checkpoint with the best mean
     ``clean_score`` on cabin-v1-val (``training_records.validation_score``; success + coverage for a
-    ``validation_suite`` of None). The committed ablations keep "last" (docs/experiments.md)."""
+    ``validation_suite`` of None). The training scripts (``scripts/train_*.sh``) pass "best"; the policies
+    trained before cabin-v1-val existed kept "last" (docs/experiments.md)."""
     threads: int = option(1)
     """torch threads: 1, as on a shared 2-core machine 2 threads spin waiting for each other
     (docs/experiments.md); ``workers`` uses the other cores instead."""
