@@ -462,3 +462,12 @@ def write_report(results: Path) -> Path:
     out = results / f"{FOLDER.name}.md"
     out.write_text(random_motion_markdown(settings), encoding="utf-8")
     return out
+
+
+def random_motion_finding(results: Path) -> str:
+    """The paper's sentences on the gap: which hypotheses account for it, and what the study's budget
+    allows; from the records in ``<results>/random_motion/``."""
+    settings = read_settings(results / FOLDER.name)
+    if not settings:
+        return f"(no {BASELINE} records in `{results / FOLDER.name}`: run `bash scripts/random_motion.sh`)"
+    return f"{accounting_sentence(hypothesis_verdicts(settings))} {within_budget_sentence(settings)}"
