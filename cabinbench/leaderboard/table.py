@@ -49,8 +49,9 @@ def layout_complexity_of(episodes: pd.DataFrame) -> dict:
 
 
 def policy_of(baseline_config: dict) -> str:
-    """The trained policy an episode ran: its ``checkpoint`` file, or the shipped one."""
-    return str(baseline_config.get("checkpoint", SHIPPED))
+    """The trained policy an episode ran: its ``checkpoint`` file (the study's pair: its ``cleaning``
+    network's), or the shipped one."""
+    return str(baseline_config.get("checkpoint", baseline_config.get("cleaning", SHIPPED)))
 
 
 def policy_name(policy: str) -> str:
