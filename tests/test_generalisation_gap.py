@@ -6,10 +6,18 @@ from __future__ import annotations
 
 import json
 
-from cabinbench.baselines.ppo_gail.training.suite_draws import layouts_trained_on
+import pytest
+from cabinbench.baselines.ppo_gail.training import suite_draws
+from cabinbench.baselines.ppo_gail.training.config import TrainConfig
+from cabinbench.baselines.ppo_gail.training.suite_draws import layouts_trained_on, training_sample
 
+from cabinbench.commands import leaderboard
 from cabinbench.layouts.suites import get_suite
+from cabinbench.leaderboard.table import policy_of
+from cabinbench.records import read_records
+from cabinbench.stats import stratified_bootstrap, stratified_difference
 from cabinbench.training_records import read_metrics
+from tests.test_run_and_leaderboard import run_main
 from tests.test_validation_protocol import layouts_built
 
 
@@ -29,3 +37,90 @@ def test_the_reconstruction_names_the_layouts_a_real_suite_run_built_and_counts_
     assert set(built) - {suite[0]} == set(trained) - {suite[0]}
     ended = sum(int(row["episodes"]) for row in read_metrics(run_dir / "metrics.csv"))
     assert sum(trained.values()) == ended + config["num_envs"] == 3 * 3  # 24 steps: begun at 0, 10, 20
+
+
+def tiny_suite_run(seed: int) -> dict:
+    """The ``config.json`` of a tiny training run on cabin-v1-train."""
+    config = TrainConfig(layouts=[], suite="cabin-v1-train", num_envs=3, num_steps_per_env=8, iterations=3)
+    return {**config.to_dict(), "max_steps": 10, "seed": seed}
+
+
+def test_the_sample_is_the_layouts_every_run_trained_on_in_the_suite_order_and_the_cli_plays_it(
+    tmp_path, capsys
+):
+    """Two seeds' runs: the sample is the layouts both began an episode on, in the suite's order (a
+    run's env i is seeded seed + i, so neighbouring seeds share envs); the command prints how many of the
+    suite's first layouts hold it, and refuses a file that is no config in one line."""
+    runs = [tiny_suite_run(0), tiny_suite_run(1)]
+    both = set(layouts_trained_on(runs[0])) & set(layouts_trained_on(runs[1]))
+    names = get_suite("cabin-v1-train").layout_names
+    sample = training_sample(runs, 30)
+    assert sample == [name for name in names if name in both] and len(sample) == 6  # 2 of 3 envs shared
+    assert training_sample(runs, 2) == sample[:2]
+    paths = []
+    for run in runs:
+        paths.append(tmp_path / f"seed{run['seed']}.json")
+        paths[-1].write_text(json.dumps(run))
+    assert suite_draws.main(["--layouts", "2", *map(str, paths)]) == 0
+    assert capsys.readouterr().out == f"{names.index(sample[1]) + 1}\n"
+    assert suite_draws.main(["--layouts", "7", *map(str, paths)]) == 2  # they share 6
+    (tmp_path / "bad.json").write_text("{")
+    assert suite_draws.main([str(tmp_path / "bad.json")]) == 2
+    assert capsys.readouterr().err.count("\n") == 2
+
+
+def test_the_train_column_is_the_layouts_the_policy_trained_on(tmp_path):
+    """A learner trained on a320_cell (two seeds, each with its config.json) with records on cabin-v1-train,
+    -test, -ood and on the classic suite from random starts: its train column is its a320_cell episodes from
+    random starts (not the cabin-v1-train ones), the section says so, and test − train pairs the seeds."""
+    from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR
+
+    training = tmp_path / "training"
+    other = training / "ppo" / "seed1" / "policy.pt"
+    other.parent.mkdir(parents=True)
+    other.write_bytes((CHECKPOINT_DIR / "ppo.pt").read_bytes())
+    cells = TrainConfig(layouts=["a320_cell"]).to_dict()
+    for folder in (training / "ppo", other.parent):
+        (folder / "config.json").write_text(json.dumps(cells))
+    runs = tmp_path / "runs"
+    for config in ({}, {"checkpoint": str(other)}):
+        common = [
+            "--baseline",
+            "ppo",
+            "--max-steps",
+            "30",
+            "--out",
+            str(runs),
+            "--config",
+            json.dumps(config),
+        ]
+        for suite in ("cabin-v1-train", "cabin-v1-test", "cabin-v1-ood"):
+            assert run_main([*common, "--suite", suite, "--layouts", "2"])[0] == 0
+        classic = ["--suite", "classic", "--layouts", "2", "--start", "random", "--episodes-per-layout", "2"]
+        assert run_main([*common, *classic])[0] == 0
+    out = tmp_path / "out"
+    assert leaderboard.main(["--runs", str(runs), "--out", str(out), "--training", str(training)]) == 0
+    section = (out / "leaderboard.md").read_text().split("#### Generalisation gap")[1]
+    line = next(line for line in section.splitlines() if line.startswith("| ppo |"))
+    row = [cell.strip() for cell in line.strip("|").split("|")]
+    records = read_records(runs)
+
+    def cells_of(chosen):
+        policies = [policy_of(config) for config in chosen["baseline_config"]]
+        return {
+            (policy, layout): group["coverage"].tolist()
+            for (policy, layout), group in chosen.assign(policy=policies).groupby(["policy", "layout"])
+        }
+
+    trained = cells_of(records[(records["suite"] == "classic") & (records["layout"] == "a320_cell")])
+    test = cells_of(records[records["suite"] == "cabin-v1-test"])
+    train_score, test_score = stratified_bootstrap(trained), stratified_bootstrap(test)
+    assert len(trained) == 2 and all(len(episodes) == 2 for episodes in trained.values())
+    assert row[1] == "2"  # training seeds
+    assert row[2] == f"{train_score.mean:.3f} ± {(train_score.high - train_score.low) / 2:.3f} (1)"
+    assert row[3] == f"{test_score.mean:.3f} ± {(test_score.high - test_score.low) / 2:.3f} (2)"
+    gap = stratified_difference(trained, test)
+    assert gap.mean == pytest.approx(test_score.mean - train_score.mean)
+    assert row[5] == f"{gap.mean:+.3f} [{gap.low:+.3f}, {gap.high:+.3f}]"
+    assert "The train column is ppo: its training cells, a320_cell." in section
+    assert f"Finding: ppo covers {train_score.mean:.3f} of the layouts it trained on" in section

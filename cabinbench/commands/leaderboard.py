@@ -60,6 +60,7 @@ from cabinbench.errors import UsageError
 from cabinbench.leaderboard.ablation import ablation_csv, ablation_figure, ablation_markdown, ablation_rows
 from cabinbench.leaderboard.curves import write_learning_curves
 from cabinbench.leaderboard.figures import training_figures, write_figures
+from cabinbench.leaderboard.gap import gap_section
 from cabinbench.leaderboard.headline import headline_csv, headline_html, headline_rows, headline_section
 from cabinbench.leaderboard.site import Entry, build_site
 from cabinbench.leaderboard.submissions import add, filed, status, verify
@@ -249,6 +250,7 @@ def write_tables(args, inputs: Inputs, out: Path) -> int:
     header = document_header(classic(inputs.every), sources, command)
     teams = team_rows(inputs.own)
     suite_text, suite_figures = suites_section(suite_records(inputs.every), out)
+    suite_text += "\n".join(["", *gap_section(suite_records(inputs.every), Path(args.training))])
     curves_text, curves_figures = write_learning_curves(Path(args.training), out)
     (out / "leaderboard.md").write_text(
         header

@@ -14,10 +14,7 @@ coverage, path efficiency and coverage over the suite's layouts, with bootstrap 
 the scatter plots. A per-layout score is the mean over the baseline's training seeds of each
 seed's mean over its distinct episodes.
 
-Last, the generalisation gap (:func:`gap_section`): every baseline that has records on the
-training suite ``cabin-v1-train`` (the learners: ``ppo_gail`` trained on the study's two cells,
-``ppo_gail_suite`` on the suite) scored on it, on ``cabin-v1-test`` and on ``cabin-v1-ood``, and
-the differences test − train and ood − train, over every training seed, with a generated finding.
+The generalisation gap that follows the suites is :mod:`cabinbench.leaderboard.gap`'s.
 """
 
 from __future__ import annotations
@@ -44,8 +41,6 @@ from cabinbench.stats import (
     iqm,
     performance_profile,
     probability_of_improvement,
-    stratified_bootstrap,
-    stratified_difference,
     summarize_cells,
 )
 
@@ -59,9 +54,6 @@ SCORES = {
 PROFILES = {"coverage": (0.5, 0.8, 0.9, 0.95), "path_efficiency": (0.2, 0.4, 0.6)}  # levels in the table
 PROFILE_LEVELS = np.linspace(0.0, 1.0, 101)  # the figure's levels
 IMPROVEMENT_METRIC = "coverage"
-GAP_SPLITS = {"train": "cabin-v1-train", "test": "cabin-v1-test", "ood": "cabin-v1-ood"}
-"""The generalisation gap's splits: the training suite, its held-out test split, out of distribution."""
-GAP_METRIC = "coverage"
 
 
 def from_random_starts(records: pd.DataFrame) -> pd.Series:
@@ -349,96 +341,6 @@ def _complexity_lines(tests: pd.DataFrame, figure: str) -> list[str]:
     ]
 
 
-def gap_rows(records: pd.DataFrame) -> list[dict]:
-    """Per baseline (sequential, K = 1) with records on the training split: its ``GAP_METRIC`` score on each
-    split (:func:`~cabinbench.stats.stratified_bootstrap` over its training seeds and the split's layouts),
-    and each held-out split's difference to the training split (seeds paired)."""
-    episodes = records[(records["protocol"] == "sequential") & (records["n_agents"] == 1)]
-    learners = sorted(set(episodes.loc[episodes["suite"] == GAP_SPLITS["train"], "baseline"]))
-    rows = []
-    for baseline in learners:
-        row = {"baseline": baseline}
-        cells = {}
-        for split, suite in GAP_SPLITS.items():
-            chosen = episodes[(episodes["baseline"] == baseline) & (episodes["suite"] == suite)]
-            if chosen.empty:
-                continue
-            found, _ = suite_cells(chosen)
-            cells[split] = {key: cell[GAP_METRIC].astype(float) for key, cell in found.items()}
-            row[split] = stratified_bootstrap(cells[split])
-            row[f"{split}_layouts"] = len({layout for _, layout in found})
-            row[f"{split}_seeds"] = len({policy for policy, _ in found})
-        for split in ("test", "ood"):
-            if split in cells:
-                row[f"{split}_gap"] = stratified_difference(cells["train"], cells[split])
-        rows.append(row)
-    return rows
-
-
-def gap_finding(rows: list[dict]) -> str:
-    """The gap in words, from the intervals."""
-    said = []
-    for row in rows:
-        parts = []
-        for split in ("test", "ood"):
-            gap = row.get(f"{split}_gap")
-            if gap is None:
-                continue
-            if np.isnan(gap.low):
-                verdict = "no interval: not the same training seeds on both"
-            elif gap.high < 0 or gap.low > 0:
-                verdict = "its interval excludes 0"
-            else:
-                verdict = "its interval includes 0: no gap shown"
-            parts.append(f"{split} {gap.mean:+.3f} ({verdict})")
-        said.append(
-            f"{row['baseline']} covers {row['train'].mean:.3f} of its train-split layouts, and differs on "
-            + ", ".join(parts)
-        )
-    text = "Finding: " + "; ".join(said) + "."
-    test = [row for row in rows if "test" in row]
-    if len(test) > 1:
-        best = max(test, key=lambda row: row["test"].mean)
-        text += f" On the held-out test layouts {best['baseline']} covers most ({best['test'].mean:.3f})."
-    return text
-
-
-def gap_section(records: pd.DataFrame) -> list[str]:
-    """The generalisation-gap table and its finding (nothing without records on the training split)."""
-    rows = gap_rows(records)
-    if not rows:
-        return []
-    lines = [
-        "#### Generalisation gap",
-        "",
-        f"{GAP_METRIC} of each learner on layouts of its training distribution ({GAP_SPLITS['train']}: the "
-        "first layouts of the suite, which the generator draws independently by index), on the held-out "
-        f"{GAP_SPLITS['test']} and on the out-of-distribution {GAP_SPLITS['ood']}: one episode per layout "
-        "from a random start (the suite protocol), the mean over training seeds and layouts ± half-width "
-        "of the stratified bootstrap 95% interval (training seeds, layouts and episodes resampled); a gap is "
-        "held-out minus train, its interval with the training seeds resampled jointly. ppo_gail trained on "
-        "the study's two A320 cells, ppo_gail_suite on every layout of cabin-v1-train "
-        "(`scripts/train_suite_policies.sh`). Training seeds: per split when they differ (train/test/ood).",
-        "",
-        "| baseline | training seeds | train (layouts) | test (layouts) | ood (layouts) | test − train | "
-        "ood − train |",
-        "|---|---:|---:|---:|---:|---:|---:|",
-    ]
-    for row in rows:
-        scores = [
-            f"{markdown_cell(row[split], '.3f')} ({row[f'{split}_layouts']})" if split in row else "—"
-            for split in GAP_SPLITS
-        ]
-        gaps = [
-            markdown_cell(row[f"{split}_gap"], "+.3f", bounds=True) if f"{split}_gap" in row else "—"
-            for split in ("test", "ood")
-        ]
-        seeds = [str(row[f"{split}_seeds"]) for split in GAP_SPLITS if split in row]
-        seeds = seeds[:1] if len(set(seeds)) == 1 else seeds
-        lines.append(f"| {row['baseline']} | {'/'.join(seeds)} | " + " | ".join(scores + gaps) + " |")
-    return lines + ["", gap_finding(rows), ""]
-
-
 def suites_csv(records: pd.DataFrame) -> pd.DataFrame:
     """Every suite's rows (:func:`suite_rows`) as CSV columns, one row per (suite, baseline, protocol, K)."""
     table = []
@@ -456,8 +358,8 @@ def suites_csv(records: pd.DataFrame) -> pd.DataFrame:
 
 
 def suites_section(records: pd.DataFrame, out) -> tuple[str, list]:
-    """The markdown of every suite's part (empty without suite records), the generalisation gap, and the
-    figures written."""
+    """The markdown of every suite's part (empty without suite records) and the figures written (the
+    generalisation gap follows it: :func:`cabinbench.leaderboard.gap.gap_section`)."""
     if records.empty:
         return "", []
     folder = out / "figures"
@@ -467,5 +369,4 @@ def suites_section(records: pd.DataFrame, out) -> tuple[str, list]:
         part, written = suite_part(str(suite), episodes, folder)
         lines += part + [""]
         figures += written
-    lines += gap_section(records)
     return "\n".join(lines), figures

@@ -13,12 +13,17 @@ made room for more, which only the run itself knew)."""
 
 from __future__ import annotations
 
+import argparse
+import json
+import sys
 from collections import Counter
+from pathlib import Path
 
 from cabinbench.baselines.ppo_gail.training.config import TrainConfig
 
 from cabinbench.envs.settings import EnvSettings
 from cabinbench.envs.suite_env import SUITE_SETTINGS, TeamSuiteEnv
+from cabinbench.layouts.suites import get_suite
 
 
 def env_draws(config: TrainConfig, env_index: int):
@@ -53,3 +58,52 @@ def layouts_trained_on(config: dict) -> Counter:
             begun[name] += 1
             start += limit
     return begun
+
+
+def training_sample(configs: list[dict], size: int) -> list[str]:
+    """The first ``size`` layouts every run of ``configs`` (``config.json`` dicts) trained on for certain:
+    a suite run's in the suite's order (the generator draws its layouts independently by index, so these
+    are a random sample of them), a run on layouts its layouts."""
+    runs = [TrainConfig.from_dict(config) for config in configs]
+    if not runs:
+        return []
+    if any(run.suite != runs[0].suite for run in runs):
+        raise ValueError(f"runs on different suites: {sorted({str(run.suite) for run in runs})}")
+    if not runs[0].suite:
+        return [name for name in runs[0].layouts if all(name in run.layouts for run in runs)][:size]
+    trained = [layouts_trained_on(config) for config in configs]
+    names = get_suite(runs[0].suite).layout_names
+    return [name for name in names if all(name in begun for begun in trained)][:size]
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print how many of the suite's first layouts hold :func:`training_sample` of the given runs: the
+    ``--layouts K`` of ``python -m cabinbench.run --suite ...`` that plays all of it."""
+    parser = argparse.ArgumentParser(
+        prog="python -m cabinbench.baselines.ppo_gail.training.suite_draws", description=main.__doc__
+    )
+    parser.add_argument("--layouts", type=int, default=30, help="the sample's size (default 30)")
+    parser.add_argument("configs", nargs="+", type=Path, help="config.json of each training run")
+    args = parser.parse_args(argv)
+    configs = []
+    for path in args.configs:
+        try:
+            configs.append(json.loads(path.read_text(encoding="utf-8")))
+        except (OSError, ValueError) as error:
+            print(f"error: {path}: not a training run's config.json ({error})", file=sys.stderr)
+            return 2
+    sample = training_sample(configs, args.layouts)
+    suite = configs[0].get("suite")
+    if not suite or len(sample) < args.layouts:
+        print(
+            f"error: {args.configs[0]}: the runs share {len(sample)} layouts of a suite for certain, "
+            f"not {args.layouts}; give a smaller --layouts",
+            file=sys.stderr,
+        )
+        return 2
+    print(get_suite(suite).layout_names.index(sample[-1]) + 1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
