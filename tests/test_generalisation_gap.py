@@ -56,6 +56,7 @@ def test_the_sample_is_the_layouts_every_run_trained_on_in_the_suite_order_and_t
     names = get_suite("cabin-v1-train").layout_names
     sample = training_sample(runs, 30)
     assert sample == [name for name in names if name in both] and len(sample) == 6  # 2 of 3 envs shared
+    assert suite_draws.shared_envs(runs) == 2 and suite_draws.shared_envs([*runs, tiny_suite_run(5)]) == 0
     assert training_sample(runs, 2) == sample[:2]
     paths = []
     for run in runs:

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from cabinbench.baselines.ppo_gail.training.suite_draws import training_sample
+from cabinbench.baselines.ppo_gail.training.suite_draws import shared_envs, training_sample
 from cabinbench.layouts.suites import get_suite
 from cabinbench.leaderboard.suites import from_random_starts, suite_cells
 from cabinbench.leaderboard.table import SHIPPED, markdown_cell, policy_of
@@ -46,7 +46,7 @@ def training_configs(policies: set[str], baseline: str, training: Path) -> dict[
 def train_split(episodes: pd.DataFrame, baseline: str, training: Path) -> tuple[pd.DataFrame, dict]:
     """The baseline's episodes from random starts on its training sample, by the policies whose training
     config is known, and what the sample is: ``layouts``, ``suite`` (None: cells), ``first`` (the suite's
-    first layouts holding it), ``policies``."""
+    first layouts holding it), ``policies``, ``shared_envs`` of ``num_envs`` (:func:`shared_envs`)."""
     policies = {policy_of(config) for config in episodes["baseline_config"]}
     configs = training_configs(policies, baseline, training)
     sample = training_sample(list(configs.values()), TRAIN_SAMPLE)
@@ -58,7 +58,16 @@ def train_split(episodes: pd.DataFrame, baseline: str, training: Path) -> tuple[
     first = None
     if suite and sample:
         first = get_suite(suite).layout_names.index(sample[-1]) + 1
-    return chosen, {"layouts": sample, "suite": suite, "first": first, "policies": len(configs)}
+    shared = shared_envs(list(configs.values()))
+    envs = max((config["num_envs"] for config in configs.values()), default=0)
+    return chosen, {
+        "layouts": sample,
+        "suite": suite,
+        "first": first,
+        "policies": len(configs),
+        "shared_envs": shared,
+        "num_envs": envs,
+    }
 
 
 def gap_rows(records: pd.DataFrame, training: Path) -> list[dict]:
@@ -106,6 +115,11 @@ def train_column_text(rows: list[dict]) -> str:
                 "each env drew at each reset; `suite_draws.py`); the generator draws a suite's layouts "
                 "independently by index, so they are a random sample of its training layouts"
             )
+            if sample["policies"] > 1:
+                said[-1] += (
+                    f" (the seeds' runs seeded {sample['shared_envs']} of their {sample['num_envs']} envs "
+                    "alike, env i of seed s with s + i, so they trained on nearly the same layouts)"
+                )
     return "; ".join(said)
 
 

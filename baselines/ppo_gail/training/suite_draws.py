@@ -76,6 +76,14 @@ def training_sample(configs: list[dict], size: int) -> list[str]:
     return [name for name in names if all(name in begun for begun in trained)][:size]
 
 
+def shared_envs(configs: list[dict]) -> int:
+    """How many training envs every run of ``configs`` seeded alike: env ``i`` of a run is seeded
+    ``seed + i``, so runs with neighbouring seeds share most of their envs' generators, and on a suite
+    their layouts."""
+    runs = [TrainConfig.from_dict(config) for config in configs]
+    return max(0, min(run.seed + run.num_envs for run in runs) - max(run.seed for run in runs)) if runs else 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Print how many of the suite's first layouts hold :func:`training_sample` of the given runs: the
     ``--layouts K`` of ``python -m cabinbench.run --suite ...`` that plays all of it."""
