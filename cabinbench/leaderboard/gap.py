@@ -109,11 +109,12 @@ def train_column_text(rows: list[dict]) -> str:
             said.append(f"{row['baseline']}: its training cells, {' + '.join(sample['layouts'])}")
         else:
             said.append(
-                f"{row['baseline']}: the first {len(sample['layouts'])} layouts of {sample['suite']} (among "
-                f"its first {sample['first']}) on which the runs of all its {sample['policies']} training "
-                "seeds began an episode for certain, reconstructed from each run's config.json (the layout "
-                "each env drew at each reset; `suite_draws.py`); the generator draws a suite's layouts "
-                "independently by index, so they are a random sample of its training layouts"
+                f"{row['baseline']}: the first {len(sample['layouts'])} layouts of {sample['suite']} (of the "
+                f"suite's first {sample['first']}) on which the runs of all its {sample['policies']} "
+                "training seeds began an episode for certain, reconstructed from each run's config.json "
+                "(the layout each env drew at each reset: `baselines/ppo_gail/training/suite_draws.py`); "
+                "the generator draws a suite's layouts independently by index, so they are a random sample "
+                "of its training layouts"
             )
             if sample["policies"] > 1:
                 said[-1] += (
