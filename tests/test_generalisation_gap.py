@@ -39,24 +39,27 @@ def test_the_reconstruction_names_the_layouts_a_real_suite_run_built_and_counts_
     assert sum(trained.values()) == ended + config["num_envs"] == 3 * 3  # 24 steps: begun at 0, 10, 20
 
 
-def tiny_suite_run(seed: int) -> dict:
-    """The ``config.json`` of a tiny training run on cabin-v1-train."""
+def tiny_suite_run(seed: int, disjoint_env_seeds: bool = False) -> dict:
+    """The ``config.json`` of a tiny training run on cabin-v1-train (by default seeded as the committed
+    runs were: env i with seed + i)."""
     config = TrainConfig(layouts=[], suite="cabin-v1-train", num_envs=3, num_steps_per_env=8, iterations=3)
-    return {**config.to_dict(), "max_steps": 10, "seed": seed}
+    return {**config.to_dict(), "max_steps": 10, "seed": seed, "disjoint_env_seeds": disjoint_env_seeds}
 
 
 def test_the_sample_is_the_layouts_every_run_trained_on_in_the_suite_order_and_the_cli_plays_it(
     tmp_path, capsys
 ):
     """Two seeds' runs: the sample is the layouts both began an episode on, in the suite's order (a
-    run's env i is seeded seed + i, so neighbouring seeds share envs); the command prints how many of the
-    suite's first layouts hold it, and refuses a file that is no config in one line."""
+    run from before ``disjoint_env_seeds`` seeds env i with seed + i, so neighbouring seeds share envs;
+    runs from now on share none); the command prints how many of the suite's first layouts hold it, and
+    refuses a file that is no config in one line."""
     runs = [tiny_suite_run(0), tiny_suite_run(1)]
     both = set(layouts_trained_on(runs[0])) & set(layouts_trained_on(runs[1]))
     names = get_suite("cabin-v1-train").layout_names
     sample = training_sample(runs, 30)
     assert sample == [name for name in names if name in both] and len(sample) == 6  # 2 of 3 envs shared
     assert suite_draws.shared_envs(runs) == 2 and suite_draws.shared_envs([*runs, tiny_suite_run(5)]) == 0
+    assert suite_draws.shared_envs([tiny_suite_run(0, True), tiny_suite_run(1, True)]) == 0
     assert training_sample(runs, 2) == sample[:2]
     paths = []
     for run in runs:

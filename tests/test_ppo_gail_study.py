@@ -195,15 +195,18 @@ ISSUE_43_SETTINGS = (
 
 def test_the_shipped_pair_is_the_study_config_of_our_forms_and_records_the_steps_it_reached():
     """The shipped pair predates ML-Agents' reward forms and the varied demonstrations: it is the study's
-    configuration with our forms (the algorithm's defaults) and every demonstration from the layout's start,
-    until it is retrained with the current one."""
+    configuration with our forms (the algorithm's defaults), every demonstration from the layout's start
+    and env seeds ``seed + i`` (seed 0: the same envs as today's), until it is retrained with the current
+    one."""
     checkpoints = REPOSITORY / "baselines" / "ppo_gail" / "checkpoints"
     for stage in STAGES:
         name = f"ppo_gail_study_{stage}"
         config = training.TrainConfig.from_dict(json.loads((checkpoints / f"{name}.config.json").read_text()))
         algorithm = study_config(stage).algorithm
         ours = {key: value for key, value in algorithm.items() if key not in ISSUE_43_SETTINGS}
-        former = study_config(stage, algorithm=ours, demo_random_start=False, demo_action_noise=0.0)
+        former = study_config(
+            stage, algorithm=ours, demo_random_start=False, demo_action_noise=0.0, disjoint_env_seeds=False
+        )
         assert config.to_dict() == former.to_dict()
         reached = json.loads((checkpoints / f"{name}.training.json").read_text())
         assert 0 < reached["iterations"] <= reached["iterations_planned"] == config.iterations

@@ -117,7 +117,7 @@ class TeamTrainConfig(TrainConfig):
     def make_env(self):
         from cabinbench.envs.batched_team import BatchedTeamEnv, RslRlTeamVecEnv
 
-        batched = BatchedTeamEnv(self.layouts, self.num_envs, seed=self.seed, **self.env_kwargs)
+        batched = BatchedTeamEnv(self.layouts, self.num_envs, seed=self.first_env_seed, **self.env_kwargs)
         return RslRlTeamVecEnv(batched), batched.observation_config, batched.observation_layout
 
     def initialise(self, runner) -> None:

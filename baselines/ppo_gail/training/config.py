@@ -53,6 +53,11 @@ class TrainConfig:
     """Training iterations: 3.3 M steps with the defaults."""
     seed: int = option(0)
     """Seed of torch, numpy, the envs and the demonstrations."""
+    disjoint_env_seeds: bool = True
+    """Seed env i (and demonstration episode i) with ``seed * num_envs + i`` (``first_env_seed``), so that
+    runs of different seeds share no env's generator. False: ``seed + i``, as the runs before this field
+    (a ``config.json`` without it): there neighbouring seeds shared all but one env's generator, and on a
+    suite nearly every layout drawn (``suite_draws``)."""
     reward: str = option("coverage", choices=REWARD_PRESETS)
     """Reward preset of the envs: the dense "coverage" (what the benchmark scores) rather than the study's
     "paper", whose episode ends at the last goal marker. Its penalties were tried: docs/experiments.md."""
@@ -259,6 +264,11 @@ class TrainConfig:
         """rsl-rl's observation groups of the actor and the critic; None: both see the policy observation."""
         return None
 
+    @property
+    def first_env_seed(self) -> int:
+        """The seed of env 0 at its first reset; env i's is this + i (``disjoint_env_seeds``)."""
+        return self.seed * self.num_envs if self.disjoint_env_seeds else self.seed
+
     def make_env(self):
         """The training envs as an rsl-rl ``VecEnv``, their observation config and observation layout."""
         from cabinbench.envs.batched import BatchedCoverageEnv, RslRlVecEnv
@@ -266,7 +276,7 @@ class TrainConfig:
         batched = BatchedCoverageEnv(
             self.layouts,
             self.num_envs,
-            seed=self.seed,
+            seed=self.first_env_seed,
             num_workers=self.cores,
             suite=self.suite,
             **self.env_kwargs,
@@ -319,8 +329,9 @@ class TrainConfig:
         if not self.suite:  # a run on layouts: its config.json reads as it did before suites existed
             for name in SUITE_FIELDS:
                 del values[name]
-        if not self.demo_random_start:  # its config.json reads as it did before the field existed
-            del values["demo_random_start"]
+        for name in ("demo_random_start", "disjoint_env_seeds"):
+            if not values[name]:  # its config.json reads as it did before the field existed
+                del values[name]
         if not (self.validation_suite and self.validation_episodes):  # validated as before, or not at all
             for name in VALIDATION_FIELDS:
                 del values[name]
@@ -336,6 +347,7 @@ class TrainConfig:
         unknown = sorted(set(values) - known)
         if unknown:
             raise ValueError(f"unknown TrainConfig field(s) {unknown}; known: {sorted(known)}")
+        values.setdefault("disjoint_env_seeds", False)  # a run from before the field
         if "validation_suite" not in values:  # validated on its training layouts, every checkpoint, or not
             values["validation_suite"] = None
             values.setdefault("validation_interval", values.get("save_interval", cls.save_interval))

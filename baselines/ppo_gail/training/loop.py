@@ -283,7 +283,7 @@ def expert_demonstrations(config: TrainConfig, run_dir: Path) -> list[str]:
                 layout,
                 config.demo_episodes,
                 str(temporary),
-                seed=config.seed,
+                seed=config.first_env_seed,
                 action_noise=config.demo_action_noise,
                 **env_kwargs,
             )

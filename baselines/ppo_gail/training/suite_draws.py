@@ -2,14 +2,14 @@
 from its ``config.json`` without re-running it.
 
 The batched training envs (:class:`~cabinbench.envs.batch_engine.BatchedEnv`) seed env ``i`` with
-``seed + i`` and reset each from its own generator, and a suite env's reset draws only the layout and the
-start pose (:class:`~cabinbench.envs.suite_env.TeamSuiteEnv`; without lidar noise an episode's steps draw
-nothing). So each env's sequence of layouts is fixed by the seed, whatever the policy did. Only where an
-env is in that sequence after ``iterations * num_steps_per_env`` steps depends on the policy: an episode
-ends at the layout's step limit or earlier, on success. Playing every episode to its step limit is the
-slowest an env can go through its sequence, so the episodes that begin within the run's steps then began
-in the real run too: :func:`layouts_trained_on` returns those, a lower bound (episodes that ended early
-made room for more, which only the run itself knew)."""
+``first_env_seed + i`` and reset each from its own generator, and a suite env's reset draws only the
+layout and the start pose (:class:`~cabinbench.envs.suite_env.TeamSuiteEnv`; without lidar noise an
+episode's steps draw nothing). So each env's sequence of layouts is fixed by the seed, whatever the policy
+did. Only where an env is in that sequence after ``iterations * num_steps_per_env`` steps depends on the
+policy: an episode ends at the layout's step limit or earlier, on success. Playing every episode to its
+step limit is the slowest an env can go through its sequence, so the episodes that begin within the run's
+steps then began in the real run too: :func:`layouts_trained_on` returns those, a lower bound (episodes
+that ended early made room for more, which only the run itself knew)."""
 
 from __future__ import annotations
 
@@ -28,14 +28,14 @@ from cabinbench.layouts.suites import get_suite
 
 def env_draws(config: TrainConfig, env_index: int):
     """Training env ``env_index``'s episodes, in order, as (layout name, step limit): its suite env
-    reset as the batch resets it, the first time with the seed ``config.seed + env_index``."""
+    reset as the batch resets it, the first time with the seed ``config.first_env_seed + env_index``."""
     settings = EnvSettings.of(SUITE_SETTINGS, config.env_kwargs)
     if settings.lidar_noise > 0:
         raise ValueError(
             "with lidar noise an episode's steps draw from the generator: its draws depend on them"
         )
     env = TeamSuiteEnv(config.suite, None, 1, settings)
-    env.begin_episode(config.seed + env_index)
+    env.begin_episode(config.first_env_seed + env_index)
     while True:
         yield env.layout.name, env.max_steps
         env.begin_episode()
@@ -78,10 +78,13 @@ def training_sample(configs: list[dict], size: int) -> list[str]:
 
 def shared_envs(configs: list[dict]) -> int:
     """How many training envs every run of ``configs`` seeded alike: env ``i`` of a run is seeded
-    ``seed + i``, so runs with neighbouring seeds share most of their envs' generators, and on a suite
-    their layouts."""
+    ``first_env_seed + i``, so runs from before ``disjoint_env_seeds`` with neighbouring seeds share most
+    of their envs' generators, and on a suite their layouts."""
     runs = [TrainConfig.from_dict(config) for config in configs]
-    return max(0, min(run.seed + run.num_envs for run in runs) - max(run.seed for run in runs)) if runs else 0
+    if not runs:
+        return 0
+    first = max(run.first_env_seed for run in runs)
+    return max(0, min(run.first_env_seed + run.num_envs for run in runs) - first)
 
 
 def main(argv: list[str] | None = None) -> int:
