@@ -5,7 +5,7 @@
 # With `learned`, only the learned baselines are played again (after retraining them): the records of the classic
 # baselines are kept, since nothing they depend on changed.
 set -euo pipefail
-learned_baselines="ppo_gail ppo ppo_icm ppo_gail_only ppo_gail_study ppo_gail_team ppo_gail_suite"
+learned_baselines="ppo_gail ppo ppo_icm ppo_gail_only ppo_gail_study ppo_gail_team ppo_gail_suite bc dagger ppo_lstm"
 if [ $# -gt 1 ] || { [ $# = 1 ] && [ "$1" != learned ]; }; then
   echo "usage: bash scripts/make_results.sh [learned]" >&2
   exit 2
@@ -98,10 +98,16 @@ for suite in cabin-v1-test cabin-v1-ood; do
     suite_run --suite "$suite" --baseline boustrophedon --agents 2
     suite_run --suite "$suite" --baseline boustrophedon --agents 4
   fi
-  for baseline in ppo_gail ppo ppo_icm ppo_gail_only; do
+  for baseline in ppo_gail ppo ppo_icm ppo_gail_only bc dagger ppo_lstm; do
     if [ -f "baselines/ppo_gail/checkpoints/$baseline.pt" ]; then
       suite_run --suite "$suite" --baseline "$baseline"
     fi
+  done
+  # The learners from the planner (bc, dagger) and with memory (ppo_lstm): every kept seed on every layout.
+  for policy in results/training/{bc,dagger,ppo_lstm}/seed*/policy.pt; do
+    [ -f "$policy" ] || continue
+    baseline=$(basename "$(dirname "$(dirname "$policy")")")
+    suite_run --suite "$suite" --baseline "$baseline" --config "{\"checkpoint\": \"$policy\"}"
   done
   if [ -f baselines/ppo_gail/checkpoints/ppo_gail_study_cleaning.pt ]; then
     suite_run --suite "$suite" --baseline ppo_gail_study
@@ -128,11 +134,15 @@ for policy in baselines/ppo_gail/checkpoints/ppo_gail_team.pt results/training/p
   done
 done
 
-# The generalisation gap (the leaderboard's "Generalisation gap"): the learned policies trained on the two cells
-# (ppo_gail) and on cabin-v1-train (ppo_gail_suite, scripts/train_suite_policies.sh), every training seed, on the
-# first 30-50 layouts of cabin-v1-train (layouts are drawn independently by index: the first ones are a fixed random
-# sample), 50 of cabin-v1-test and 25 of cabin-v1-ood; the shipped ppo_gail's test and ood episodes are the ones
-# above. Sized to one session's shared core.
+# The generalisation gap (the leaderboard's "Generalisation gap", cabinbench/leaderboard/gap.py): the learned
+# policies trained on the two cells (ppo_gail) and on cabin-v1-train (ppo_gail_suite, scripts/train_suite_policies.sh),
+# every training seed, on layouts they trained on, on 50 layouts of cabin-v1-test and on 25 of cabin-v1-ood; the
+# shipped ppo_gail's test, ood and classic-suite episodes are the ones above. ppo_gail's train column is its two cells
+# from random starts (its classic-suite episodes there, the whole suite played so that the classic suite's table has
+# every seed on every layout; its cabin-v1-train layouts are ones it never saw);
+# ppo_gail_suite's is the first 30 layouts of cabin-v1-train on which every seed's run began an episode for certain,
+# reconstructed from the runs' config.json: suite_draws prints how many of the suite's first layouts hold them.
+# Sized to one session's shared core.
 gap_run() { local suite=$1 layouts=$2 baseline=$3 policy=${4:-}; local config=()
   if [ -n "$policy" ]; then config=(--config "{\"checkpoint\": \"$policy\"}"); fi
   suite_run --suite "$suite" --layouts "$layouts" --baseline "$baseline" "${config[@]}"; }
@@ -144,13 +154,21 @@ for policy in results/training/ppo_gail/seed*/policy.pt; do
   gap_run cabin-v1-train 50 ppo_gail "$policy"
   gap_run cabin-v1-test 50 ppo_gail "$policy"
   gap_run cabin-v1-ood 25 ppo_gail "$policy"
+  suite_run --suite classic --start random --episodes-per-layout 5 --baseline ppo_gail --config "{\"checkpoint\": \"$policy\"}"
 done
+suite_configs=()
+for config in results/training/ppo_gail_suite/config.json results/training/ppo_gail_suite/seed*/config.json; do
+  if [ -f "$config" ]; then suite_configs+=("$config"); fi
+done
+if [ ${#suite_configs[@]} -gt 0 ]; then
+  suite_trained=$(python -m cabinbench.baselines.ppo_gail.training.suite_draws --layouts 30 "${suite_configs[@]}")
+fi
 for policy in baselines/ppo_gail/checkpoints/ppo_gail_suite.pt results/training/ppo_gail_suite/seed*/policy.pt; do
   [ -f "$policy" ] || continue
   if [ "$policy" = baselines/ppo_gail/checkpoints/ppo_gail_suite.pt ]; then policy=""; fi  # the shipped one
   gap_run cabin-v1-test 50 ppo_gail_suite "$policy"
   gap_run cabin-v1-ood 25 ppo_gail_suite "$policy"
-  gap_run cabin-v1-train 30 ppo_gail_suite "$policy"
+  gap_run cabin-v1-train "$suite_trained" ppo_gail_suite "$policy"
 done
 
 # The learned baselines' further training runs (results/ablation.md): the policies of seeds 1, 2, ... kept in

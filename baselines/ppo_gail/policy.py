@@ -285,6 +285,15 @@ class LearnedPolicy(Baseline):
     config_files = ("checkpoint",)
     ablation = ""
 
+    @staticmethod
+    def training_layouts(configs: list[dict], size: int) -> tuple[list[str], int]:
+        """The first ``size`` layouts every run of ``configs`` (``config.json`` contents) trained on, and how
+        many envs the runs seeded alike (``training.suite_draws``); reachable through the registry by the
+        leaderboard's generalisation gap, which may not import a baseline."""
+        from cabinbench.baselines.ppo_gail.training.suite_draws import shared_envs, training_sample
+
+        return training_sample(configs, size), shared_envs(configs)
+
     def __init__(
         self, checkpoint: str | os.PathLike | None = None, stochastic: bool = True, **config
     ) -> None:

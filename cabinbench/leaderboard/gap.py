@@ -4,7 +4,8 @@ on the layouts it trained on, on ``cabin-v1-test`` and on ``cabin-v1-ood``, and 
 train and ood − train, over every training seed, with a generated finding.
 
 The train column is each learner's own training layouts, read from its runs' ``config.json``
-(:func:`~cabinbench.baselines.ppo_gail.training.suite_draws.training_sample`): a run on cells trained on
+(the baseline's ``training_layouts``, through the registry: ``baselines/ppo_gail/training/suite_draws.py``
+for the learners here): a run on cells trained on
 those cells; a run on the suite drew a layout at every reset, which the config fixes, so the column is
 the first layouts of the suite that every seed's run began an episode on for certain. The first layouts
 of a suite are not its training layouts: a run of 322 episodes over 500 layouts never saw most of them.
@@ -18,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from cabinbench.baselines.ppo_gail.training.suite_draws import shared_envs, training_sample
+from cabinbench.agents import baseline_class
 from cabinbench.layouts.suites import get_suite
 from cabinbench.leaderboard.suites import from_random_starts, suite_cells
 from cabinbench.leaderboard.table import SHIPPED, markdown_cell, policy_of
@@ -46,10 +47,10 @@ def training_configs(policies: set[str], baseline: str, training: Path) -> dict[
 def train_split(episodes: pd.DataFrame, baseline: str, training: Path) -> tuple[pd.DataFrame, dict]:
     """The baseline's episodes from random starts on its training sample, by the policies whose training
     config is known, and what the sample is: ``layouts``, ``suite`` (None: cells), ``first`` (the suite's
-    first layouts holding it), ``policies``, ``shared_envs`` of ``num_envs`` (:func:`shared_envs`)."""
+    first layouts holding it), ``policies``, ``shared_envs`` of ``num_envs`` (envs the runs seeded alike)."""
     policies = {policy_of(config) for config in episodes["baseline_config"]}
     configs = training_configs(policies, baseline, training)
-    sample = training_sample(list(configs.values()), TRAIN_SAMPLE)
+    sample, shared = baseline_class(baseline).training_layouts(list(configs.values()), TRAIN_SAMPLE)
     suite = next(iter(configs.values())).get("suite") if configs else None
     policy = episodes["baseline_config"].map(policy_of)
     chosen = episodes[from_random_starts(episodes) & policy.isin(configs) & episodes["layout"].isin(sample)]
@@ -58,7 +59,6 @@ def train_split(episodes: pd.DataFrame, baseline: str, training: Path) -> tuple[
     first = None
     if suite and sample:
         first = get_suite(suite).layout_names.index(sample[-1]) + 1
-    shared = shared_envs(list(configs.values()))
     envs = max((config["num_envs"] for config in configs.values()), default=0)
     return chosen, {
         "layouts": sample,
