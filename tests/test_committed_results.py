@@ -8,6 +8,7 @@ from pathlib import Path
 import pandas as pd
 
 from cabinbench.commands import leaderboard, paper
+from cabinbench.paper.random_motion import random_motion_markdown, read_settings
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -25,6 +26,7 @@ def test_committed_leaderboard_and_paper_match_the_records(tmp_path, monkeypatch
         "ablation.md",
         "ablation.csv",
         "teams.csv",
+        "learning_curves.csv",
     ):
         regenerated = (out / name).read_text(encoding="utf-8").replace(str(out), "results")
         assert regenerated == (ROOT / "results" / name).read_text(encoding="utf-8"), (
@@ -36,6 +38,11 @@ def test_committed_leaderboard_and_paper_match_the_records(tmp_path, monkeypatch
         assert (out / "figures" / name).read_bytes() == (ROOT / "results" / "figures" / name).read_bytes(), (
             f"figure {name} is stale"
         )
+    # the random-motion report is built from its committed records
+    settings = read_settings(ROOT / "results" / "random_motion")
+    assert random_motion_markdown(settings) == (ROOT / "results" / "random_motion.md").read_text(), (
+        "results/random_motion.md is stale: run python -m cabinbench.paper --random-motion"
+    )
     # the paper is built from the committed results
     built = paper.build(ROOT / "paper" / "template.md", ROOT / "results", ROOT / "paper" / "paper.md")
     assert built == (ROOT / "paper" / "paper.md").read_text(encoding="utf-8"), (
