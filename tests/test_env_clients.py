@@ -254,6 +254,13 @@ if __name__ == "__main__":
 """
 
 
+def as_a_terminal_starts_it() -> None:
+    """A terminal's job starts with Ctrl-C at its default and unblocked, whatever the test process's own
+    signal state (a child inherits a blocked or ignored SIGINT through exec)."""
+    signal.pthread_sigmask(signal.SIG_SETMASK, [])
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_ctrl_c_while_stepping_stops_the_workers_without_their_tracebacks(tmp_path):
     """A terminal sends Ctrl-C (SIGINT) to the whole process group: the workers must leave the
     decision to the main process, which stops them and raises KeyboardInterrupt."""
@@ -266,6 +273,7 @@ def test_ctrl_c_while_stepping_stops_the_workers_without_their_tracebacks(tmp_pa
         text=True,
         cwd=tmp_path,
         start_new_session=True,  # its own process group, as a terminal's foreground job
+        preexec_fn=as_a_terminal_starts_it,
     )
     try:
         workers = [int(pid) for pid in process.stdout.readline().split()]  # the workers are up
