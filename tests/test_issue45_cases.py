@@ -5,6 +5,7 @@ line). The commands run as real subprocesses."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -15,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.test_run_and_leaderboard import alive, children, ctrl_c_as_in_a_terminal, wait_until
+from tests.test_run_and_leaderboard import children, ctrl_c_as_in_a_terminal, wait_until
 from tests.test_sizes import cabin
 
 REFUSAL_S = 90  # a refusal is the interpreter's and torch's start-up; the issue's train ran 241 s first
@@ -97,36 +98,120 @@ def test_complexity_refuses_the_issues_large_layouts_in_one_line(tmp_path, text,
     assert elapsed < REFUSAL_S
 
 
-@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="reads the process tree from Linux /proc")
-@pytest.mark.parametrize("moment", ["while the workers start", "while the batch steps"])
-def test_ctrl_c_in_train_with_workers_is_one_line_exit_130_and_leaves_no_worker(tmp_path, moment):
-    train = ["--baseline", "ppo", "--layout", "a320_cell", "--num-envs", "4", "--steps-per-env", "8"]
+def train_with_workers(tmp_path: Path, layout: str) -> subprocess.Popen:
+    """``train`` with two workers (the main process steps half the batch, a worker process the other half)
+    in a process group of its own, which a terminal's Ctrl-C reaches whole."""
+    train = ["--baseline", "ppo", "--layout", layout, "--num-envs", "4", "--steps-per-env", "8"]
     train += ["--validation-episodes", "0", "--save-interval", "1", "--workers", "2", "--no-progress"]
-    process = subprocess.Popen(
+    return subprocess.Popen(
         [sys.executable, "-m", "cabinbench.train", *train, "--run-dir", "run", "--iterations", "1000"],
         cwd=tmp_path,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,
-        start_new_session=True,  # its own process group, which a terminal's Ctrl-C reaches whole
+        start_new_session=True,
         preexec_fn=ctrl_c_as_in_a_terminal,
     )
+
+
+def spawning(pid: int) -> bool:
+    """Whether the main thread of ``pid`` blocks or ignores SIGINT (Linux /proc) while its multiprocessing
+    resource tracker runs: the main process of a batched env starts the tracker, then holds SIGINT while
+    it spawns its workers (a Ctrl-C then waits; it was ignored, and lost). The other moments that block
+    it, every subprocess's ``vfork``, come before. Fails once a worker runs and SIGINT is not held: the
+    moment (milliseconds) passed between two looks."""
+    fields = dict(line.split(":\t", 1) for line in Path(f"/proc/{pid}/status").read_text().splitlines())
+    holds = any(int(fields[name], 16) >> (signal.SIGINT - 1) & 1 for name in ("SigBlk", "SigIgn"))
+    commands = [cmdline(child) for child in children(pid)]
+    assert holds or not any(b"spawn_main" in command for command in commands), "the spawn passed unseen"
+    return holds and any(b"multiprocessing.resource_tracker" in command for command in commands)
+
+
+def cmdline(pid: int) -> bytes:
+    """The command line of ``pid`` (Linux /proc); empty once it has ended."""
     try:
-        # the multiprocessing resource tracker, then the worker of the second half of the batch
-        assert wait_until(lambda: len(children(process.pid)) >= 2, 240), "no worker started"
-        if moment == "while the workers start":
-            time.sleep(0.5)  # the worker imports (seconds); the main process has left the spawn
-        else:
-            assert wait_until(lambda: list((tmp_path / "run" / "checkpoints").glob("*.pt")), 240)
-        workers = children(process.pid)
+        return Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return b""
+
+
+def worker_running_for(seconds: float):
+    """The moment the worker of a train (its second child) has run for ``seconds``."""
+    first_seen = []
+
+    def moment(pid: int) -> bool:
+        if not first_seen and len(children(pid)) >= 2:
+            first_seen.append(time.monotonic())
+        return bool(first_seen) and time.monotonic() - first_seen[0] >= seconds
+
+    return moment
+
+
+def group_alive(group: int) -> list[int]:
+    """The processes of process group ``group`` that still run (Linux /proc)."""
+    members = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        with contextlib.suppress(OSError):  # a process that ended meanwhile
+            state, _, group_of = stat.read_text().rsplit(")", 1)[1].split()[:3]
+            if int(group_of) == group and state != "Z":
+                members.append(int(stat.parent.name))
+    return members
+
+
+def ctrl_c(tmp_path: Path, layout: str, moment) -> tuple[subprocess.Popen, str]:
+    """Ctrl-C to a ``train`` with workers as soon as ``moment(pid)`` is true (polled every millisecond):
+    the process, and what it printed."""
+    process = train_with_workers(tmp_path, layout)
+    try:
+        deadline = time.monotonic() + 240
+        while not moment(process.pid):
+            assert process.poll() is None and time.monotonic() < deadline, "the moment never came"
+            time.sleep(0.001)
         os.killpg(process.pid, signal.SIGINT)
-        _, stderr = process.communicate(timeout=120)
+        _, stderr = process.communicate(timeout=60)  # a lost Ctrl-C: training goes on (TimeoutExpired)
     finally:
         process.kill()
-    assert process.returncode == 130 and "Traceback" not in stderr, stderr
-    assert "KeyboardInterrupt" not in stderr and "WorkerDied" not in stderr, stderr
-    assert (
-        stderr.splitlines()[-1] == "interrupted: finished checkpoints are kept in run; continue with --resume"
+    return process, stderr
+
+
+def assert_interrupted_in_one_line(process: subprocess.Popen, stderr: str, moment: str) -> None:
+    """Exit 130 with the line of an interrupted run (after train's heading, if it came that far), and no
+    process of its group left."""
+    assert process.returncode == 130 and "Traceback" not in stderr, f"{moment}: {stderr}"
+    assert "KeyboardInterrupt" not in stderr and "WorkerDied" not in stderr, f"{moment}: {stderr}"
+    *heading, last = stderr.splitlines()
+    assert last == "interrupted: finished checkpoints are kept in run; continue with --resume", moment
+    assert all(line.startswith("training ppo on ") for line in heading), f"{moment}: {stderr}"
+    assert wait_until(lambda: not group_alive(process.pid), 10), f"{moment}: {group_alive(process.pid)} left"
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="reads the process tree from Linux /proc")
+def test_ctrl_c_while_train_starts_its_workers_is_never_lost_and_is_one_line(tmp_path):
+    """Each moment in a train of its own, at once. On full_cabin the layouts a worker is given are larger
+    than a pipe holds: a spawn that sends them lasts until the worker has imported them (seconds), and a
+    Ctrl-C that the main process ignored all that time was lost (training went on). Every try must end
+    in the one line, exit 130, with no process of its group left."""
+    starting = {
+        "as the worker is spawned": spawning,  # milliseconds
+        "as the worker appears": worker_running_for(0.0),  # the main process sends it its layouts
+        "while the worker imports": worker_running_for(1.0),
+    }
+    folders = {moment: tmp_path / str(number) for number, moment in enumerate(starting)}
+    for folder in folders.values():
+        folder.mkdir()
+    with ThreadPoolExecutor(max_workers=len(starting)) as pool:
+        tries = {
+            moment: pool.submit(ctrl_c, folders[moment], "full_cabin", starting[moment])
+            for moment in starting
+        }
+    for moment, attempt in tries.items():
+        assert_interrupted_in_one_line(*attempt.result(), moment)
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="reads the process tree from Linux /proc")
+def test_ctrl_c_while_train_steps_its_workers_is_one_line_exit_130_and_leaves_no_worker(tmp_path):
+    """Where it once gave two tracebacks and WorkerDied's wrong advice."""
+    process, stderr = ctrl_c(
+        tmp_path, "a320_cell", lambda pid: list((tmp_path / "run" / "checkpoints").glob("*.pt"))
     )
-    assert stderr.count("interrupted") == 1
-    assert wait_until(lambda: not any(alive(worker) for worker in workers), 10), workers
+    assert_interrupted_in_one_line(process, stderr, "while the batch steps")

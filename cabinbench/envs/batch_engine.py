@@ -11,8 +11,8 @@ the new episode's first observations). Robot ``k`` of env ``i`` is row ``i * K +
 are this engine.
 
 Workers ignore Ctrl-C (SIGINT): the terminal sends it to the whole process group, and the main
-process alone decides. Interrupted while it waits for them, it stops the workers and raises
-``KeyboardInterrupt``; no worker prints a traceback.
+process alone decides. Interrupted while it starts them or waits for them, it stops the workers and
+raises ``KeyboardInterrupt``; no worker prints a traceback.
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ import os
 import signal
 import threading
 import time
+from multiprocessing import resource_tracker
 
 import numpy as np
 import torch
@@ -235,13 +236,16 @@ class EnvShard:
                 self._observe(k, env)
 
 
-def _serve_shard(connection, *shard_arguments) -> None:
-    """Worker process: build a shard, then run each (method name, arguments) it is sent on it and
-    send back the result, until told to stop (None)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the main process stops the workers on Ctrl-C
-    shard = EnvShard(*shard_arguments)
-    connection.send(None)  # its first observations are written
+def _serve_shard(connection, batch: BatchArrays) -> None:
+    """Worker process: build a shard of ``batch`` from the arguments it is sent first, then run each
+    (method name, arguments) it is sent on it and send back the result, until told to stop (None).
+    It starts with SIGINT blocked (:func:`_sigint_held`)."""
+    # the main process stops the workers on Ctrl-C; ignoring it discards one that waited, blocked
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     try:
+        shard = EnvShard(batch=batch, **connection.recv())
+        connection.send(None)  # its first observations are written
         while (command := _receive(connection)) is not None:
             name, arguments = command
             connection.send(getattr(shard, name)(*arguments))
@@ -251,20 +255,31 @@ def _serve_shard(connection, *shard_arguments) -> None:
 
 
 @contextlib.contextmanager
-def _sigint_ignored():
-    """Ignore SIGINT in this process while workers start: a spawned worker inherits the ignored signal
-    through ``exec``, and Python then installs no KeyboardInterrupt handler, so a Ctrl-C while it
-    imports cannot end it with a traceback. A Ctrl-C in these milliseconds is lost. (Only the main
-    thread may set signal handlers, and only a handler set from Python can be put back; otherwise the
-    worker's own :func:`signal.signal` call, once its imports are done, has to do.)"""
-    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGINT) is None:
-        yield
-        return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+def _sigint_held():
+    """Hold Ctrl-C (SIGINT) while workers are spawned, and deliver it once they are. It is blocked in
+    this thread, so a spawned worker inherits it blocked through ``exec`` and cannot die of it, with a
+    traceback, while it imports (:func:`_serve_shard` ignores it, which discards one that waited, then
+    unblocks it). From the main thread, one that reaches this process meanwhile (another of its threads
+    may take it) is noted instead of raised in the middle of a spawn, and handed to the handler it
+    replaced at the end, so that the caller can stop the workers. (Ignoring SIGINT here instead lost a
+    Ctrl-C in this window.) The resource tracker is started first, as starting it unblocks SIGINT."""
+    main_thread = threading.current_thread() is threading.main_thread()
+    handler = signal.getsignal(signal.SIGINT) if main_thread else None
+    noted = []
+    if callable(handler):  # else SIG_IGN, SIG_DFL, or a handler set outside Python: left as they are
+        signal.signal(signal.SIGINT, lambda number, frame: noted.append(frame))
     try:
-        yield
+        resource_tracker.ensure_running()
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            yield
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)  # a Ctrl-C that waited is noted here
     finally:
-        signal.signal(signal.SIGINT, previous)
+        if callable(handler):
+            signal.signal(signal.SIGINT, handler)
+            if noted:
+                handler(signal.SIGINT, noted[0])
 
 
 class BatchedEnv:
@@ -309,23 +324,47 @@ class BatchedEnv:
         self.observations, self.states = self.batch.observations, self.batch.states
         self.shard_bounds = [(int(first), int(last)) for first, last in zip(bounds, bounds[1:])]
         shards = [
-            (self.layouts, first, last - first, seed, n_agents, settings, self.batch, suite, observe_ended)
+            {
+                "layouts": self.layouts,
+                "first": first,
+                "count": last - first,
+                "seed": seed,
+                "n_agents": n_agents,
+                "settings": settings,
+                "suite": suite,
+                "observe_ended": observe_ended,
+            }
             for first, last in self.shard_bounds
         ]
         self.workers = []
-        with _sigint_ignored():
-            for arguments in shards[1:]:
-                parent, child = _CONTEXT.Pipe()
-                process = _CONTEXT.Process(target=_serve_shard, args=(child, *arguments), daemon=True)
-                process.start()
-                child.close()  # the worker's end only: a worker that dies then ends the pipe (EOFError)
-                self.workers.append((parent, process))
         try:
-            self.local = EnvShard(*shards[0])  # built while the workers build theirs
+            self._start_workers(shards[1:])
+            self.local = EnvShard(batch=self.batch, **shards[0])  # built while the workers build theirs
             self._replies("starting")
         except BaseException:
             self._stop_workers()
             raise
+
+    def _start_workers(self, shards: list[dict]) -> None:
+        """A worker process for each of ``shards`` (:class:`EnvShard`'s arguments but the batch), then
+        sent its arguments. Only the batch goes into the spawn, which holds Ctrl-C (:func:`_sigint_held`):
+        a spawn writes its pickle into the worker's pipe, which the worker reads as it imports, so
+        layouts larger than a pipe holds kept the spawn going for seconds. A send is interruptible,
+        and the workers, spawned at once, import at the same time."""
+        if not shards:
+            return  # no resource tracker either
+        with _sigint_held():
+            for _ in shards:
+                parent, child = _CONTEXT.Pipe()
+                process = _CONTEXT.Process(target=_serve_shard, args=(child, self.batch), daemon=True)
+                process.start()
+                child.close()  # the worker's end only: a worker that dies then ends the pipe (EOFError)
+                self.workers.append((parent, process))
+        for (parent, _), arguments in zip(self.workers, shards):
+            try:
+                parent.send(arguments)
+            except BrokenPipeError:
+                pass  # a dead worker: reported by _replies
 
     def _describe(self, layout, num_envs: int, n_agents: int, suite: str | None, settings: EnvSettings):
         """The batch's spaces and limits, from one example env per layout (the envs only read the
