@@ -24,8 +24,8 @@ def read_metrics(path: str | os.PathLike) -> list[dict]:
 
 def validation_score(rows: list[dict]) -> float:
     """A checkpoint's validation score, the mean over its rows: the headline ``clean_score`` where they
-    record it (runs validated on cabin-v1-val by the rsl-rl trainer), else success rate + coverage (earlier
-    runs, and bc and dagger). Both, because an episode ends at success: a policy that never finishes may
+    record it (runs validated on cabin-v1-val), else success rate + coverage (runs validated on their
+    training layouts). Both, because an episode ends at success: a policy that never finishes may
     cover more by wandering until the step limit, and one that finishes early may leave floor uncleaned."""
     if all(row.get("clean_score") not in (None, "") for row in rows):
         return float(np.mean([float(row["clean_score"]) for row in rows]))

@@ -10,8 +10,10 @@ import pytest
 import torch
 from cabinbench.baselines.boustrophedon import Boustrophedon
 from cabinbench.baselines.imitation.config import ImitationConfig
+from cabinbench.baselines.imitation.training import write_rows
 from cabinbench.baselines.ppo_gail import cli
 from cabinbench.baselines.ppo_gail.policy import read_policy_file
+from cabinbench.baselines.ppo_gail.training.validation import VALIDATION_COLUMNS
 
 from cabinbench.agents import EpisodeContext, load_baseline
 from cabinbench.episodes import make_env
@@ -39,6 +41,17 @@ def test_bc_reduces_its_loss_resumes_as_it_would_have_gone_on_and_its_policy_pla
     assert train("bc", tmp_path / "resumed", 2, "--resume") == 0
     resumed = read_metrics(tmp_path / "resumed" / "metrics.csv")
     assert [row["fit_loss"] for row in resumed] == [row["fit_loss"] for row in metrics]
+
+    # a run validated before bc recorded clean_score chooses again on it when resumed, rows as a new run's
+    validation_path = tmp_path / "straight" / "validation.csv"
+    scored = read_metrics(validation_path)
+    assert all(0.0 <= float(row["clean_score"]) <= 1.0 for row in scored)
+    older = [{key: value for key, value in row.items() if key != "clean_score"} for row in scored]
+    write_rows(validation_path, VALIDATION_COLUMNS, older)
+    assert train("bc", tmp_path / "straight", 2, "--resume") == 0
+    assert read_metrics(validation_path) == scored
+    chosen = read_policy_file(tmp_path / "straight" / "policy.pt")["training"]["exported_iteration"]
+    assert chosen == best_checkpoint(scored)[0]
 
     policy_path = tmp_path / "straight" / "policy.pt"
     policy = read_policy_file(policy_path)
@@ -87,6 +100,7 @@ def test_dagger_labels_the_states_its_policy_visited_with_the_expert_and_chooses
     validation = read_metrics(tmp_path / "validation.csv")
     assert {row["iteration"] for row in validation} == {"1", "2"}
     assert all(row["layout"].startswith("cabin-v1-val/") for row in validation)
+    assert all(row["clean_score"] != "" for row in validation)  # chosen on the headline score
     chosen = read_policy_file(tmp_path / "policy.pt")["training"]["exported_iteration"]
     assert chosen == best_checkpoint(validation)[0]
     assert torch.equal(

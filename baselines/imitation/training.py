@@ -7,12 +7,15 @@
    weights go on from the last round; the observation normaliser is fixed from round 0's expert data);
 3. writing ``checkpoints/model_<i>.pt`` (actor, optimiser, training time) and a row of ``metrics.csv``;
 4. playing one episode with that checkpoint's policy (``validation/policy_<i>.pt``, mean actions) on each of
-   ``validation_episodes`` layouts of ``cabin-v1-val`` from a random start: rows of ``validation.csv``,
-   whose ``layout`` column names the cabin-v1-val layout. No other layout is ever read to choose.
+   ``validation_episodes`` layouts of ``cabin-v1-val`` from a random start: rows of ``validation.csv``
+   with the headline ``clean_score``, whose ``layout`` column names the cabin-v1-val layout. No other
+   layout is ever read to choose.
 
-At the end ``policy.pt`` holds the best checkpoint on cabin-v1-val (``training_records.validation_score``),
-or with ``export="last"`` the last one. ``resume`` goes on from the latest checkpoint: rounds are seeded by
-(seed, round), so a resumed run collects and fits what the run would have.
+At the end ``policy.pt`` holds the checkpoint with the best ``clean_score`` on cabin-v1-val
+(``training_records.validation_score``), or with ``export="last"`` the last one. ``resume`` goes on from
+the latest checkpoint: rounds are seeded by (seed, round), so a resumed run collects and fits what the run
+would have. It first validates every checkpoint whose rows are missing or lack ``clean_score`` (written
+before bc and dagger recorded it), so a resumed finished run chooses again on the headline score.
 """
 
 from __future__ import annotations
@@ -42,7 +45,7 @@ from cabinbench.baselines.ppo_gail.training.config import (
 )
 from cabinbench.baselines.ppo_gail.training.loop import TrainResult
 from cabinbench.baselines.ppo_gail.training.validation import (
-    VALIDATION_COLUMNS,
+    SCORED_COLUMNS,
     Player,
     one_episode_each,
     validation_rows,
@@ -134,9 +137,11 @@ def train(
             start, train_time = int(state["iteration"]), float(state["train_time"])
             rounds = [read_round(run_dir, index) for index in range(start)]
             learner = Learner(config, rounds[0]["observations"])
+            if config.validation_episodes:  # interrupted before a validation, or validated before clean_score
+                for iteration in range(1, start + 1):
+                    learner.load(torch.load(checkpoint_path(run_dir, iteration), weights_only=True))
+                    validate(config, run_dir, iteration, learner, executor)
             learner.load(state)
-            if config.validation_episodes:  # interrupted before its validation
-                validate(config, run_dir, start, learner, executor)
         metrics = [row for row in read_rows(run_dir / METRICS_FILE) if int(row["iteration"]) <= start]
         write_rows(run_dir / METRICS_FILE, METRICS_COLUMNS, metrics)
         bar = tqdm(total=config.iterations, initial=start, disable=not progress, desc=config.method)
@@ -240,18 +245,21 @@ def metrics_row(iteration: int, rounds: list[dict], losses: tuple[float, float],
 def validate(config: ImitationConfig, run_dir: Path, iteration: int, learner: Learner, executor) -> None:
     """Play checkpoint ``iteration``'s policy (mean actions) for one episode from a random start on each
     cabin-v1-val layout of ``config.validation_layouts`` (``validation.validation_rows``, as the rsl-rl
-    trainer does); append a row per layout to ``validation.csv`` (unless that checkpoint's rows are there: a
-    resumed run)."""
+    trainer does); write a row per layout to ``validation.csv``, unless that checkpoint's rows are there
+    with their ``clean_score`` (a resumed run). Rows without it are replaced."""
     path = run_dir / VALIDATION_FILE
     rows = read_rows(path)
-    if any(int(row["iteration"]) == iteration for row in rows):
+    own = [row for row in rows if int(row["iteration"]) == iteration]
+    if own and all(row.get("clean_score") not in (None, "") for row in own):
         return
+    rows = [row for row in rows if int(row["iteration"]) != iteration]
     policy = export(config, learner, run_dir / VALIDATION_DIR / f"policy_{iteration:06d}.pt", {})
     env_kwargs = {"random_start": True, **({"max_steps": config.max_steps} if config.max_steps else {})}
     player = Player(config.method, str(policy), env_kwargs)
     plays = one_episode_each(config.validation_layouts)
-    measured = validation_rows(iteration, plays, player, executor, VALIDATION_COLUMNS)
-    write_rows(path, VALIDATION_COLUMNS, rows + measured)
+    measured = validation_rows(iteration, plays, player, executor, SCORED_COLUMNS)
+    kept = sorted(rows + measured, key=lambda row: int(row["iteration"]))  # stable: layouts keep their order
+    write_rows(path, SCORED_COLUMNS, kept)
 
 
 def export(config: ImitationConfig, learner: Learner, path: Path, training: dict) -> Path:

@@ -21,11 +21,12 @@ from cabinbench.baselines.ppo_gail.training.config import (
 from cabinbench.training_records import read_metrics
 
 VALIDATION_COLUMNS = ("iteration", "layout", "episodes", "coverage", "success", "cells_cleared", "time")
-"""``validation.csv`` of bc and dagger, and of the runs validated on their training layouts (before
-``TrainConfig.validation_suite``): one row per checkpoint and layout, the means over its episodes there."""
+"""``validation.csv`` of the runs validated on their training layouts (before
+``TrainConfig.validation_suite``), and of bc and dagger before they recorded ``clean_score``: one row per
+checkpoint and layout, the means over its episodes there."""
 SCORED_COLUMNS = (*VALIDATION_COLUMNS, "clean_score")
-"""``validation.csv`` of the runs validated on ``validation_suite``: the headline score too, on which
-``export="best"`` chooses (``training_records.validation_score``)."""
+"""``validation.csv`` of the runs validated on ``validation_suite`` and of bc and dagger: the headline score
+too, on which ``export="best"`` chooses (``training_records.validation_score``)."""
 
 
 @dataclass(frozen=True)
