@@ -34,7 +34,7 @@ from cabinbench.leaderboard.predictors import predictor_finding
 from cabinbench.leaderboard.suites import complexity_tests, suite_rows
 from cabinbench.paper.random_motion import random_motion_finding, write_report
 from cabinbench.paper.reproduction import reproduction_table
-from cabinbench.paper.summary import abstract, compute_table, figure_caption, findings
+from cabinbench.paper.summary import abstract, compute_table, figure_caption, findings, learner_findings
 from cabinbench.records import RecordWarning, read_records, with_current_complexity
 
 DEFAULT_OUT = "paper/paper.md"
@@ -95,7 +95,9 @@ def build(template: Path, results: Path, out: Path) -> str:
     headline = cache(lambda: headline_inputs(results))
     fillers = {
         "{{abstract}}": lambda: abstract(*headline()),
-        "{{findings}}": lambda: "\n".join(f"- {sentence}" for sentence in findings(headline()[0])),
+        "{{findings}}": lambda: "\n".join(
+            f"- {sentence}" for sentence in [*findings(headline()[0]), *learner_findings(headline()[0])]
+        ),
         "{{headline_table}}": lambda: headline_markdown(headline()[0]),
         "{{complexity_finding}}": lambda: headline()[1],
         "{{compute_table}}": lambda: compute_table(headline()[0]),

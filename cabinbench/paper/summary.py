@@ -92,6 +92,70 @@ def findings(rows: list[dict]) -> list[str]:
     return sentences
 
 
+def _row(rows: list[dict], baseline: str) -> dict | None:
+    return next((row for row in rows if row["baseline"] == baseline), None)
+
+
+def relation(a: Summary, b: Summary) -> str:
+    """Where interval ``a`` stands to ``b``: "below", "above", or "overlaps"."""
+    if not separated(a, b):
+        return "overlaps"
+    return "below" if a.mean < b.mean else "above"
+
+
+def relation_text(a: dict, b: dict, suite: str) -> str:
+    """``a``'s interval on ``suite`` against ``b``'s, in words."""
+    where = relation(a[suite], b[suite])
+    if where == "overlaps":
+        return f"the intervals of {_name(a)} and {_name(b)} overlap"
+    return f"{_name(a)}'s interval lies {where} that of {_name(b)}"
+
+
+MEMORY_VERDICTS = {
+    "below": "memory, as trained here, does not recover what the patch gives",
+    "above": "memory, as trained here, does better than the patch",
+    "overlaps": "these runs cannot tell memory from the patch",
+}
+
+
+def memory_sentence(ranked: list[dict]) -> str | None:
+    """Does memory recover what the coverage patch gives? ``ppo_lstm`` against ``ppo``, the same PPO seeing
+    the patch (single-robot rows on the test suite; None until both are scored)."""
+    test = HEADLINE_SUITES[0]
+    memory, patch = _row(ranked, "ppo_lstm"), _row(ranked, "ppo")
+    if memory is None or patch is None:
+        return None
+    return (
+        f"Memory instead of a map: `ppo_lstm` (PPO with an LSTM on lidar and velocity, no coverage patch) "
+        f"scores {score_text(memory[test], _unit(memory, test))} against "
+        f"{score_text(patch[test], _unit(patch, test))} for `ppo` (the same PPO seeing the patch); "
+        f"{relation_text(memory, patch, test)}, so {MEMORY_VERDICTS[relation(memory[test], patch[test])]}."
+    )
+
+
+def imitation_sentence(ranked: list[dict]) -> str | None:
+    """Learning from the planner: ``bc`` and ``dagger`` against their teacher, the boustrophedon planner
+    (single-robot rows on the test suite; None until one of them is scored)."""
+    test = HEADLINE_SUITES[0]
+    teacher = _row(ranked, "boustrophedon")
+    students = [row for row in (_row(ranked, "bc"), _row(ranked, "dagger")) if row is not None]
+    if teacher is None or not students:
+        return None
+    scores = " and ".join(f"{_name(row)} {score_text(row[test], _unit(row, test))}" for row in students)
+    relations = "; ".join(relation_text(row, teacher, test) for row in students)
+    return (
+        f"Learning from the planner: {scores}, against {score_text(teacher[test], _unit(teacher, test))} "
+        f"for their teacher {_name(teacher)}; {relations}."
+    )
+
+
+def learner_findings(rows: list[dict]) -> list[str]:
+    """The findings on the learners a reviewer asks for first, one sentence each: learning from the planner,
+    and memory instead of the coverage patch (in the findings list, not the abstract)."""
+    ranked = _scored([row for row in rows if row["n_agents"] == 1], HEADLINE_SUITES[0])
+    return [sentence for sentence in (imitation_sentence(ranked), memory_sentence(ranked)) if sentence]
+
+
 def abstract(rows: list[dict], complexity_finding: str) -> str:
     """The abstract: what the benchmark is, then the findings and the complexity finding."""
     methods = len({(row["baseline"], row["n_agents"]) for row in rows})
