@@ -29,6 +29,7 @@ from concurrent.futures import ThreadPoolExecutor
 import torch
 from cabinbench.baselines.ppo_gail.demonstrations import load_demonstrations
 from cabinbench.baselines.ppo_gail.mlagents import MlAgentsCuriosity, MlAgentsDiscriminator
+from cabinbench.baselines.ppo_gail.normalisers import update_normalisers_once
 from cabinbench.baselines.ppo_gail.reward_models import (
     CuriosityModel,
     GailDiscriminator,
@@ -131,10 +132,12 @@ class PPOCuriosityGail(PPO):
             agent does.
         shaping_epochs: Epochs of the ICM and discriminator updates per iteration, over PPO's mini-batches
             (None: PPO's ``num_learning_epochs``).
-        shaping_update_threads: Train the ICM and the discriminator each in a thread of its own while
-            PPO trains (the other cores' work; torch runs its kernels outside Python's lock). The results
-            do not change: every random draw of their updates is made before PPO's, in the order of the
-            sequential update, and each module only reads the rollout and writes its own weights.
+        shaping_update_threads: Threads that train the ICM and the discriminator while PPO trains (the
+            other cores' work; torch runs its kernels outside Python's lock): with one, the ICM trains in
+            it and the discriminator after PPO, which balances the two cores (docs/experiments.md); with two,
+            each in a thread of its own; 0: all in turn. The results do not change: every random draw of
+            their updates is made before PPO's, in the order of the sequential update, and each module
+            only reads the rollout and writes its own weights.
         ppo_kwargs: Passed to ``PPO`` (gamma, lam, learning_rate, ..., device, multi_gpu_cfg).
     """
 
@@ -162,11 +165,12 @@ class PPOCuriosityGail(PPO):
         expected_observation_config: dict | str | None = None,
         shaping_columns: Sequence[int] | None = None,
         shaping_epochs: int | None = None,
-        shaping_update_threads: bool = False,
+        shaping_update_threads: int = 0,
         **ppo_kwargs,
     ) -> None:
         """Build PPO and the enabled reward modules (the arguments: see the class docstring)."""
         super().__init__(actor, critic, storage, **ppo_kwargs)
+        update_normalisers_once(self._raw_actor, self._raw_critic)
         if self.is_multi_gpu and (use_curiosity or use_gail):
             raise NotImplementedError(
                 "PPOCuriosityGail does not synchronise the ICM and discriminator across GPUs."
@@ -188,6 +192,8 @@ class PPOCuriosityGail(PPO):
         self.shaping_columns = (
             None if shaping_columns is None else torch.as_tensor(shaping_columns, device=self.device)
         )
+        # (observations, their shaping part, its ICM encoding) of the last step's s_t+1: the next step's s_t
+        self._encoded_next_states: tuple[TensorDict, torch.Tensor, torch.Tensor] | None = None
         self.curiosity: CuriosityModel | None = None
         if use_curiosity:
             self._build_curiosity(
@@ -209,9 +215,8 @@ class PPOCuriosityGail(PPO):
             )
             self.gail_rewards = torch.zeros(self._rollout_shape, device=self.device)
         shaping_modules = (self.curiosity is not None) + (self.discriminator is not None)
-        self.shaping_threads = (
-            ThreadPoolExecutor(shaping_modules) if shaping_update_threads and shaping_modules else None
-        )
+        self.threaded_updates = min(shaping_update_threads, shaping_modules)
+        self.shaping_threads = ThreadPoolExecutor(self.threaded_updates) if self.threaded_updates else None
 
     @property
     def _observation_dim(self) -> int:
@@ -270,16 +275,23 @@ class PPOCuriosityGail(PPO):
         only on (s_t, a_t).
         """
         step = self.storage.step
-        states = self._shaping_observation(self.transition.observations)
+        # s_t is the previous step's s_t+1 (the same observations, done envs' included): its shaping part and
+        # encoding are reused, which gives the same numbers as computing them again
+        previous = self._encoded_next_states
+        reused = previous is not None and previous[0] is self.transition.observations
+        states = previous[1] if reused else self._shaping_observation(self.transition.observations)
         actions = self.transition.actions.clamp(-ACTION_LIMIT, ACTION_LIMIT)
         # not modified in place: the runner logs the environment reward after this call
         shaped_rewards = rewards
 
         if self.curiosity is not None:
             next_states = self._shaping_observation(obs)
+            features = previous[2] if reused else self.curiosity.encoder(states)
+            next_features = self.curiosity.encoder(next_states)
+            self._encoded_next_states = (obs, next_states, next_features)
             not_done = dones == 0
             curiosity_rewards = self.curiosity.reward(
-                states, actions, next_states, not_done, self.curiosity_strength
+                states, actions, next_states, not_done, self.curiosity_strength, features, next_features
             )
             self.next_states[step].copy_(next_states)
             self.curiosity_rewards[step].copy_(curiosity_rewards)
@@ -306,6 +318,7 @@ class PPOCuriosityGail(PPO):
         step) and ``gail_discriminator``, ``gail_gradient_penalty``, ``gail_accuracy``, ``gail_reward`` (mean
         per step) for the enabled modules; the runner logs them all under ``Loss/``.
         """
+        self._encoded_next_states = None  # the ICM's weights change
         shaping_updates: list[Callable[[], dict[str, float]]] = []
         if self.curiosity is not None or self.discriminator is not None:
             states = self._shaping_observation(self.storage.observations).flatten(0, 1)
@@ -344,12 +357,13 @@ class PPOCuriosityGail(PPO):
                 )
             )
 
-        if self.shaping_threads:
-            beside = [self.shaping_threads.submit(shaping_update) for shaping_update in shaping_updates]
-            shaping_updates = [future.result for future in beside]
+        if self.shaping_threads:  # the first (the ICM, the heaviest) in threads, the others after PPO
+            threaded = self.threaded_updates
+            beside = [self.shaping_threads.submit(update) for update in shaping_updates[:threaded]]
+            shaping_updates = [future.result for future in beside] + shaping_updates[threaded:]
         ppo_losses = super().update()  # it reads what the shaping updates read, and writes none of it
         extra_losses = {}
-        for shaping_update in shaping_updates:  # with threads: their results, once they are done
+        for shaping_update in shaping_updates:  # of a thread: its result, once it is done
             extra_losses |= shaping_update()
         return ppo_losses | extra_losses
 
@@ -430,6 +444,7 @@ class PPOCuriosityGail(PPO):
         """Load what ``save`` wrote. ``load_cfg`` takes the keys of ``PPO.load`` plus ``curiosity`` and
         ``discriminator`` (each loads weights and optimiser state); ``None`` loads everything."""
         load_iteration = super().load(loaded_dict, load_cfg, strict)
+        self._encoded_next_states = None
         if self.curiosity is not None and (load_cfg is None or load_cfg.get("curiosity")):
             self.curiosity.load_state_dict(loaded_dict["curiosity_state_dict"], strict=strict)
             self.curiosity_optimizer.load_state_dict(loaded_dict["curiosity_optimizer_state_dict"])

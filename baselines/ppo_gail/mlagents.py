@@ -80,10 +80,13 @@ class MlAgentsCuriosity(CuriosityModel):
         next_states: torch.Tensor,
         valid: torch.Tensor,
         strength: float,
+        features: torch.Tensor | None = None,
+        next_features: torch.Tensor | None = None,
     ) -> torch.Tensor:
         """``clip(strength * surprise, 0, 1)`` of each transition; zero where ``valid`` is False (its next
-        observation is a reset's) and before the first update."""
-        surprise = self.surprise(states, actions, next_states)
+        observation is a reset's) and before the first update (``features``, ``next_features``: as for
+        ``surprise``)."""
+        surprise = self.surprise(states, actions, next_states, features, next_features)
         return (strength * surprise * self.has_updated).clamp(0.0, 1.0) * valid
 
 

@@ -3,9 +3,10 @@ Curiosity Module (Pathak et al. 2017; the study's Eq. 4.23-4.28) and the GAIL di
 the study's §4.2.7), with the running std that keeps the curiosity reward in units of typical surprise.
 ``mlagents.py`` holds the forms of Unity ML-Agents, which the study ran.
 
-A curiosity module offers ``losses``, ``loss_multiplier`` and ``reward(states, actions, next_states, valid,
-strength)``; a discriminator ``losses``, ``loss_noise``, ``reward(states, actions)`` (before the strength) and
-``centred_reward``."""
+A curiosity module offers ``encoder``, ``losses``, ``loss_multiplier`` and ``reward(states, actions,
+next_states, valid, strength, features=None, next_features=None)`` (the features: the encoder's, where the
+caller has them); a discriminator ``losses``, ``loss_noise``, ``reward(states, actions)`` (before the
+strength) and ``centred_reward``."""
 
 from __future__ import annotations
 
@@ -81,11 +82,20 @@ class CuriosityModel(nn.Module):
         return forward_loss, inverse_loss
 
     def surprise(
-        self, states: torch.Tensor, actions: torch.Tensor, next_states: torch.Tensor
+        self,
+        states: torch.Tensor,
+        actions: torch.Tensor,
+        next_states: torch.Tensor,
+        features: torch.Tensor | None = None,
+        next_features: torch.Tensor | None = None,
     ) -> torch.Tensor:
-        """1/2 ||phi_hat(s_t+1) - phi(s_t+1)||^2 of each transition, shape [B]."""
-        next_features = self.encoder(next_states)
-        predicted_next_features = self.forward_model(torch.cat([self.encoder(states), actions], dim=-1))
+        """1/2 ||phi_hat(s_t+1) - phi(s_t+1)||^2 of each transition, shape [B]. ``features`` and
+        ``next_features``: phi(s_t) and phi(s_t+1) where the caller has them already (None: encoded here)."""
+        if next_features is None:
+            next_features = self.encoder(next_states)
+        if features is None:
+            features = self.encoder(states)
+        predicted_next_features = self.forward_model(torch.cat([features, actions], dim=-1))
         return 0.5 * (predicted_next_features - next_features).square().sum(dim=-1)
 
 
@@ -123,15 +133,17 @@ class IntrinsicCuriosityModule(CuriosityModel):
         next_states: torch.Tensor,
         valid: torch.Tensor,
         strength: float,
+        features: torch.Tensor | None = None,
+        next_features: torch.Tensor | None = None,
     ) -> torch.Tensor:
         """``strength`` times the surprise of each transition divided by its running std; zero where
-        ``valid`` is False.
+        ``valid`` is False (``features``, ``next_features``: as for ``surprise``).
 
         ``valid`` marks transitions whose ``next_states`` really follow ``states``. For an environment that is
         done, the runner hands over the first observation of the next episode, whose prediction error is
         meaningless; it is neither rewarded nor counted in the running std.
         """
-        surprise = self.surprise(states, actions, next_states)
+        surprise = self.surprise(states, actions, next_states, features, next_features)
         self.surprise_std.update(surprise[valid])
         return strength * (surprise / self.surprise_std.std.clamp_min(1e-8) * valid)
 

@@ -157,8 +157,8 @@ class TrainConfig:
     (docs/experiments.md); ``workers`` uses the other cores instead."""
     workers: int = option(0, metavar="N")
     """Cores the training uses (0: every core this process may run on): the single-robot envs step in that
-    many processes, and with 2 or more the ICM and the discriminator each train in a thread beside PPO. The
-    results do not depend on it."""
+    many processes, and the ICM and the discriminator train in up to that many less one threads beside PPO
+    (with 2 the ICM beside PPO, the discriminator after it). The results do not depend on it."""
 
     def __post_init__(self) -> None:
         if self.ablation not in ABLATIONS:

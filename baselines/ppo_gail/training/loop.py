@@ -226,7 +226,7 @@ def build_runner(config: TrainConfig, run_dir: Path):
         init_noise_std=config.init_noise_std,
         obs_normalization=config.obs_normalization,
         save_interval=config.save_interval,
-        shaping_update_threads=config.cores > 1,
+        shaping_update_threads=config.cores - 1,
         **config.algorithm,
     )
     for model in ("actor", "critic"):
