@@ -21,17 +21,26 @@ from cabinbench.baselines.ppo_gail.training.config import TrainConfig
 from cabinbench.baselines.ppo_gail.training.loop import build_runner
 from cabinbench.baselines.ppo_gail.training.metrics import TrainingLog
 
+SHAPING_EPOCHS_1 = {**TrainConfig().algorithm, "shaping_epochs": 1}
+SMALL_ICM = {"curiosity_encoding_size": 128, "curiosity_hidden_dims": [128]}
+COARSE_PATCH = {"coverage_patch": 16, "coverage_patch_cell": 0.25}
 VARIANTS = {
     **{ablation: {"ablation": ablation} for ablation in ABLATIONS},
     "ppo_gail_one_core": {"ablation": "ppo_gail", "workers": 1},
-    "ppo_gail_shaping_epochs_1": {
+    "ppo_gail_shaping_epochs_1": {"ablation": "ppo_gail", "algorithm": SHAPING_EPOCHS_1},
+    "ppo_gail_small_icm": {"ablation": "ppo_gail", "algorithm": {**TrainConfig().algorithm, **SMALL_ICM}},
+    "ppo_gail_coarse_patch": {"ablation": "ppo_gail", **COARSE_PATCH},
+    "ppo_gail_cheaper": {
         "ablation": "ppo_gail",
-        "algorithm": {**TrainConfig().algorithm, "shaping_epochs": 1},
+        "algorithm": {**SHAPING_EPOCHS_1, **SMALL_ICM},
+        **COARSE_PATCH,
     },
 }
 """What is timed: each ablation's default (shipped) configuration; ``ppo_gail`` on one core, for what the
-second core buys; and ``ppo_gail`` whose ICM and discriminator train one epoch an iteration instead of PPO's
-three (docs/experiments.md, "One epoch of the ICM and the discriminator")."""
+second core buys; and ``ppo_gail`` with settings that train faster and change what it learns, none of them
+adopted (docs/experiments.md, "What a training iteration costs"): its ICM and discriminator trained one epoch
+an iteration instead of PPO's three (see also "One epoch of the ICM and the discriminator"), an ICM of 128
+units instead of 256, the coarse 16 x 16 patch of 0.25 m cells, and the three together."""
 
 
 class _TimedEnv:
@@ -66,11 +75,13 @@ def bench_iteration(iterations: int = 3, warmup: int = 1) -> dict[str, dict[str,
     """``{variant: {"env": s, "rollout": s, "update": s, "total": s}}``: seconds of each variant's
     fastest timed iteration. The variants take turns, one iteration each, so that a machine whose load
     drifts slows them alike; the fastest of the turns is the one the neighbours disturbed least."""
-    with tempfile.TemporaryDirectory() as folder:  # one folder: the GAIL ablations share the demonstrations
+    with tempfile.TemporaryDirectory() as folder:  # the GAIL variants of one patch share its demonstrations
         timed = {}
         for name, settings in VARIANTS.items():
             config = TrainConfig(**settings, validation_episodes=0)
-            runner, _ = build_runner(config, Path(folder))
+            demonstrations = Path(folder) / f"patch_{config.coverage_patch}_{config.coverage_patch_cell}"
+            demonstrations.mkdir(exist_ok=True)
+            runner, _ = build_runner(config, demonstrations)
             runner.env = _TimedEnv(runner.env)
             runner.logger = _TimedLog(config.num_envs, config.num_envs * config.num_steps_per_env)
             timed[name] = (runner, [])
