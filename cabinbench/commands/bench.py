@@ -58,7 +58,7 @@ BIG_MAPS = {"map_1000x800": ((50.0, 40.0), "whole"), "map_2000x2000": ((100.0, 1
 # imports, about 0.1 GB, included).
 LOAD_IN_FRESH_PROCESS = """
 import resource, sys, time
-from cabinbench.layouts.model import load_layout
+from cabinbench.layouts.resolve import load_layout
 started = time.perf_counter()
 load_layout(sys.argv[1]).coverable_raster
 print(time.perf_counter() - started, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20)
