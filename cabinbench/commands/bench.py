@@ -64,7 +64,8 @@ load_layout(sys.argv[1]).coverable_raster
 print(time.perf_counter() - started, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20)
 """
 PLAN_IN_FRESH_PROCESS = (
-    "import sys; from cabinbench.bench import bench_planner; print(bench_planner(sys.argv[1], repeats=1))"
+    "import sys; from cabinbench.commands.bench import bench_planner; "
+    "print(bench_planner(sys.argv[1], repeats=1))"
 )
 BIG_PLAN_LIMIT_S = 300  # a plan still running then is reported as not done, and the bench goes on
 
