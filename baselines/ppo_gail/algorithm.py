@@ -216,15 +216,7 @@ class PPOCuriosityGail(PPO):
             self.gail_rewards = torch.zeros(self._rollout_shape, device=self.device)
         shaping_modules = (self.curiosity is not None) + (self.discriminator is not None)
         self.threaded_updates = min(shaping_update_threads, shaping_modules)
-        # torch's thread count holds for the thread that set it: a new thread would run its kernels on
-        # OpenMP's default of every core, spinning against PPO's (3x slower on 2 cores)
-        self.shaping_threads = (
-            ThreadPoolExecutor(
-                self.threaded_updates, initializer=torch.set_num_threads, initargs=(torch.get_num_threads(),)
-            )
-            if self.threaded_updates
-            else None
-        )
+        self.shaping_threads = _update_threads(self.threaded_updates)
 
     @property
     def _observation_dim(self) -> int:
@@ -474,6 +466,15 @@ class PPOCuriosityGail(PPO):
     def _shuffled_batches(self, num_samples: int) -> tuple[torch.Tensor, ...]:
         """One epoch's mini-batches: shuffled indices split into PPO's number of mini-batches."""
         return torch.randperm(num_samples, device=self.device).chunk(self.num_mini_batches)
+
+
+def _update_threads(count: int) -> ThreadPoolExecutor | None:
+    """``count`` threads (None for 0) that run torch on as many threads as this one: torch's thread count
+    holds for the thread that set it, and a new thread would run its kernels on OpenMP's default of every
+    core, spinning against PPO's (3x slower on 2 cores)."""
+    if not count:
+        return None
+    return ThreadPoolExecutor(count, initializer=torch.set_num_threads, initargs=(torch.get_num_threads(),))
 
 
 def _mean(values: list[float]) -> float:
