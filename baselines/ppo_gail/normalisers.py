@@ -17,8 +17,15 @@ def update_normalisers_once(actor: MLPModel, critic: MLPModel) -> None:
     """Make the critic's ``update_normalization`` copy the actor's new statistics when it is called, as
     PPO calls it, right after the actor's on the same observations and while the two normalisers held
     the same statistics before (else it updates its own, as before); nothing where the models see other
-    observation groups or either does not normalise."""
-    if not (actor.obs_normalization and critic.obs_normalization and actor.obs_groups == critic.obs_groups):
+    observation groups, either does not normalise, or they update or normalise in other ways."""
+    alike = (
+        actor.obs_normalization
+        and critic.obs_normalization
+        and actor.obs_groups == critic.obs_groups
+        and type(actor).update_normalization is type(critic).update_normalization
+        and type(actor.obs_normalizer) is type(critic.obs_normalizer)
+    )
+    if not alike:
         return
     update_actor, update_critic = actor.update_normalization, critic.update_normalization
     before: dict = {}  # the observations of the actor's last update, and its statistics before it
