@@ -24,7 +24,7 @@ from cabinbench.baselines.imitation.config import ImitationConfig
 from cabinbench.baselines.ppo_gail import training
 from cabinbench.baselines.ppo_gail.algorithm import PPOCuriosityGail
 from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR, PolicyFileError, read_policy_file
-from cabinbench.baselines.ppo_gail.team_training import TeamTrainConfig
+from cabinbench.baselines.ppo_gail.trainers import TRAINERS
 
 from cabinbench import training_records
 from cabinbench.agents import load_baseline
@@ -514,21 +514,19 @@ def test_train_cli_options_set_the_training_config(tmp_path):
 
 
 def test_committed_training_configs_read_back_as_they_were_written():
-    """``config.json`` is ``TrainConfig.to_dict()`` (``TeamTrainConfig``'s for ``ppo_gail_team``), which
+    """``config.json`` is the ``to_dict()`` of the baseline's trainer's config class (``TRAINERS``), which
     ``from_dict`` reads back (a resumed run, the leaderboard's reward-signal columns): every committed one
-    round-trips to the same bytes, with the
-    ablation's ``use_curiosity`` and ``use_gail``."""
+    (``results/training/<baseline>/[seed<S>/]config.json``) round-trips to the same bytes, an rsl-rl
+    learner's with the ablation's ``use_curiosity`` and ``use_gail``."""
     paths = sorted(COMMITTED_TRAINING.rglob("config.json"))
     assert len(paths) >= 4
     for path in paths:
+        shipped = path.relative_to(COMMITTED_TRAINING).parts[0]
+        config_class = TRAINERS[shipped.removesuffix("_suite")].config_class  # ppo_gail_suite: ppo_gail's
         text = path.read_text()
-        if "method" in json.loads(text):  # bc and dagger: the imitation trainer's config
-            assert json.dumps(ImitationConfig.from_dict(json.loads(text)).to_dict(), indent=2) + "\n" == text
-            continue
-        config_class = TeamTrainConfig if "ppo_gail_team" in path.parts else training.TrainConfig
-        config = config_class.from_dict(json.loads(text))
-        assert json.dumps(config.to_dict(), indent=2) + "\n" == text, path
-        assert {"use_curiosity", "use_gail"} <= json.loads(text).keys()  # what the leaderboard reads
+        assert json.dumps(config_class.from_dict(json.loads(text)).to_dict(), indent=2) + "\n" == text, path
+        if config_class is not ImitationConfig:
+            assert {"use_curiosity", "use_gail"} <= json.loads(text).keys()  # what the leaderboard reads
     with pytest.raises(ValueError, match="unknown TrainConfig field.*'gail_strenght'"):
         training.TrainConfig.from_dict({**json.loads(text), "gail_strenght": 0.1})
     with pytest.raises(ValueError, match="unknown ablation 'nope'"):
