@@ -513,6 +513,35 @@ def test_train_cli_options_set_the_training_config(tmp_path):
     assert defaults == training.TrainConfig(ablation="ppo")
 
 
+def test_an_algorithm_that_leaves_out_a_default_setting_is_told_before_training():
+    """``--algorithm`` replaces the baseline's algorithm settings: a run that leaves out one whose value there
+    differs from the algorithm's default is told what it trains with instead and how to keep it; one that
+    gives them, or no ``--algorithm``, or one that leaves out only what the default equals, hears nothing."""
+    from cabinbench.baselines.ppo_gail.cli import parse_args, replaced_defaults
+
+    def note(baseline: str, *options: str) -> str | None:
+        args = parse_args(["--baseline", baseline, *options])
+        return replaced_defaults(args, TRAINERS[args.baseline])
+
+    assert note("ppo_gail", "--algorithm", '{"shaping_epochs": 1}') == (
+        """note: --algorithm replaces ppo_gail's {"entropy_coef": 0.03, "gail_strength": 0.02}, so this """
+        """run trains with "entropy_coef": 0.01, "gail_strength": 0.3 (the algorithm's defaults); give """
+        """"entropy_coef": 0.03, "gail_strength": 0.02 in it to keep them"""
+    )
+    assert note("ppo", "--algorithm", '{"entropy_coef": 0.05}').endswith(
+        'give "gail_strength": 0.02 in it to keep them'
+    )
+    assert (
+        note("ppo_gail", "--algorithm", '{"entropy_coef": 0.03, "gail_strength": 0.02, "gamma": 0.9}') is None
+    )
+    assert note("ppo_gail") is None
+    study = note("ppo_gail_study", "--stage", "cleaning", "--algorithm", '{"gail_strength": 0.3}')
+    trains_with = study.split("trains with ")[1].split(" (the algorithm's defaults)")[0]
+    assert '"curiosity_form"' in trains_with  # the study's is "mlagents", the algorithm's default is not
+    assert '"entropy_coef"' not in trains_with  # the study's 0.01 is the default too
+    assert '"gail_hidden_dims"' not in trains_with  # its [128, 128] is the default's (128, 128)
+
+
 def test_committed_training_configs_read_back_as_they_were_written():
     """``config.json`` is the ``to_dict()`` of the baseline's trainer's config class (``TRAINERS``), which
     ``from_dict`` reads back (a resumed run, the leaderboard's reward-signal columns): every committed one

@@ -83,6 +83,7 @@ from pathlib import Path
 
 from cabinbench.baselines.onnx.export import export_twin
 from cabinbench.baselines.ppo_gail.options import add_options, flag, option, option_fields
+from cabinbench.baselines.ppo_gail.runner_config import algorithm_defaults
 from cabinbench.baselines.ppo_gail.study import STAGES
 from cabinbench.baselines.ppo_gail.trainers import TRAINERS, Trainer, keep
 from cabinbench.baselines.ppo_gail.training.config import CONFIG_FILE, TrainConfig, default_run_dir
@@ -242,9 +243,32 @@ def checked_config(args: argparse.Namespace) -> tuple[TrainConfig, Path]:
     return config, run_dir
 
 
+def replaced_defaults(args: argparse.Namespace, trainer: Trainer) -> str | None:
+    """The note for an ``--algorithm`` without settings the baseline's config gives: it replaces that
+    dict, so those take the algorithm's defaults, which trains another method unnoticed."""
+    if getattr(args, "algorithm", None) is None:
+        return None
+    ours, fallback = trainer.config(args.baseline, args.stage, {}).algorithm, algorithm_defaults()
+    left_out = {name: value for name, value in ours.items() if name not in args.algorithm}
+    changed = {  # compared as JSON, which the config holds: a default tuple is its list
+        name: fallback.get(name)
+        for name, value in left_out.items()
+        if json.dumps(fallback.get(name)) != json.dumps(value)
+    }
+    if not changed:
+        return None
+    return (
+        f"note: --algorithm replaces {args.baseline}'s {json.dumps(ours)}, so this run trains with "
+        f"{json.dumps(changed)[1:-1]} (the algorithm's defaults); give "
+        f"{json.dumps({name: ours[name] for name in changed})[1:-1]} in it to keep them"
+    )
+
+
 def train_checked(args: argparse.Namespace, trainer: Trainer, config: TrainConfig, run_dir: Path) -> int:
     """Train (or export) the run of a checked config, then ship or keep it as asked; the exit status."""
     name = shipped_name(args)
+    if note := replaced_defaults(args, trainer):
+        print(note, file=sys.stderr)
     print(
         f"{'exporting' if args.export_latest else 'training'} {name} on {config.trained_on}: "
         f"{config.iterations} iterations x {config.num_envs} envs x {config.num_steps_per_env} steps; "

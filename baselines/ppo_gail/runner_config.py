@@ -42,6 +42,18 @@ def algorithm_settings() -> list[str]:
     return sorted(names - {"self", *SET_BY_THE_TRAINER})
 
 
+def algorithm_defaults() -> dict:
+    """What each of ``algorithm_settings()`` is in a run that does not give it: the study's PPO values
+    (``STUDY_PPO``, which ``make_train_cfg`` sets) over the arguments' own defaults."""
+    defaults = {
+        parameter.name: parameter.default
+        for function in (PPO.__init__, PPOCuriosityGail.__init__)
+        for parameter in inspect.signature(function).parameters.values()
+        if parameter.default is not inspect.Parameter.empty
+    }
+    return {name: value for name, value in {**defaults, **STUDY_PPO}.items() if name in algorithm_settings()}
+
+
 def check_algorithm_settings(settings: dict) -> None:
     """Raise ``ValueError`` naming the settings that are not ``algorithm_settings()``."""
     unknown = sorted(set(settings) - set(algorithm_settings()))

@@ -101,9 +101,10 @@ class TrainConfig:
         default_factory=lambda: {"entropy_coef": 0.03, "gail_strength": 0.02},
         metavar="JSON",
     )
-    """Further ``PPOCuriosityGail`` settings as JSON, such as {"gail_strength": 0.1}; the others keep the
-    study's Table 5.2/5.3 values. The entropy bonus is raised from 0.01 (the std collapsed) and the GAIL
-    strength lowered from 0.3 (the policy imitated and ignored the patch): docs/experiments.md."""
+    """``PPOCuriosityGail`` settings as JSON in place of these defaults (give them too to keep them), such as
+    {"entropy_coef": 0.03, "gail_strength": 0.1}; the others keep the study's Table 5.2/5.3 values. The
+    entropy bonus is raised from 0.01 (the std collapsed) and the GAIL strength lowered from 0.3 (the policy
+    imitated, ignoring the patch): docs/experiments.md. ``train`` says which defaults a run leaves out."""
     demo_episodes: int = option(4, metavar="N")
     """Expert (boustrophedon) episodes recorded per training layout for GAIL; planner and env are
     deterministic, so without ``demo_action_noise`` these are one trajectory repeated."""
