@@ -70,10 +70,13 @@ def report(groups: dict[str, list[dict]]) -> str:
     for name, runs in groups.items():
         chosen = t_interval([run["best_score"] for run in runs])
         minutes = sum(run["minutes"] for run in runs) / len(runs)
-        line = (
-            f"- {name}: chosen checkpoints' val clean_score {chosen.mean:.3f} [{chosen.low:.3f}, "
-            f"{chosen.high:.3f}] (t interval, n = {chosen.n} seeds); {minutes:.1f} min of training a run"
+        interval = (
+            f"[{chosen.low:.3f}, {chosen.high:.3f}] (t interval, n = {chosen.n} seeds)"
+            if chosen.n > 1
+            else "(one seed: no interval)"
         )
+        line = f"- {name}: chosen checkpoints' val clean_score {chosen.mean:.3f} {interval}; "
+        line += f"{minutes:.1f} min of training a run"
         if name != reference:
             place = "below" if chosen.mean < low else "above" if chosen.mean > high else "within"
             line += f"; its mean lies {place} {reference}'s seed spread [{low:.3f}, {high:.3f}]"
