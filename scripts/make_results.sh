@@ -4,25 +4,47 @@
 # It scores the policies in the repository; scripts/train_policies.sh retrains them first, if wanted.
 # With `learned`, only the learned baselines are played again (after retraining them): the records of the classic
 # baselines are kept, since nothing they depend on changed.
+# An interrupted regeneration continues with RESUME=1 bash scripts/make_results.sh [learned]: the runs that had
+# finished keep their records and are not played again; an unfinished run is played again from its start.
 set -euo pipefail
 learned_baselines="ppo_gail ppo ppo_icm ppo_gail_only ppo_gail_study ppo_gail_team ppo_gail_suite bc dagger ppo_lstm"
+staging=runs/make_results  # each run plays into a folder of its own here; its records move on once it has finished
+done_runs=$staging/done    # one line for each finished run: the arguments of its `play`
 if [ $# -gt 1 ] || { [ $# = 1 ] && [ "$1" != learned ]; }; then
-  echo "usage: bash scripts/make_results.sh [learned]" >&2
+  echo "usage: [RESUME=1] bash scripts/make_results.sh [learned]" >&2
   exit 2
-elif [ $# = 1 ]; then
-  classic=false
-  for baseline in $learned_baselines; do rm -f results/runs/*__"$baseline"__*; done
+elif [ "${RESUME:-0}" = 1 ]; then
+  [ -f "$done_runs" ] || { echo "nothing to resume: no $done_runs; run bash $0 $* to start" >&2; exit 2; }
+  classic=$([ $# = 0 ] && echo true || echo false)
 else
-  classic=true
-  rm -rf results/runs
+  if [ $# = 1 ]; then
+    classic=false
+    for baseline in $learned_baselines; do rm -f results/runs/*__"$baseline"__*; done
+  else
+    classic=true
+    rm -rf results/runs
+  fi
+  rm -rf results/ablation_runs results/figures "$staging"
+  mkdir -p "$staging"
+  : > "$done_runs"
 fi
-rm -rf results/ablation_runs results/figures
-# Every run is queued as one command line, and the queue runs at the end, one run per core: each run writes
-# files of its own, and the leaderboard orders episodes by seed, not by when they finished.
+# Every run is queued as one `play` line, and the queue runs at the end, one run per core: each run writes files
+# of its own, and the leaderboard orders episodes by seed, not by when they finished.
+play() {  # one run: the folder its records go to, then cabinbench.run's arguments
+  local out=$1 key folder
+  key=$(printf '%q ' "$@")
+  folder=$staging/$(md5sum <<< "$key" | cut -c1-16)
+  shift
+  grep -qxF "$key" "$done_runs" && return 0
+  rm -rf "$folder" && python -m cabinbench.run --out "$folder" "$@" > /dev/null &&
+    mkdir -p "$out" && mv "$folder"/* "$out"/ && rmdir "$folder" && echo "$key" >> "$done_runs"
+}
+export -f play
+export staging done_runs
 queue=$(mktemp)
 trap 'rm -f "$queue"' EXIT
-runs() { local seeds=$1 episodes=$2 out=$3 arguments; shift 3; printf -v arguments '%q ' "$@"
-  for seed in $seeds; do echo "python -m cabinbench.run --episodes $episodes --seed $seed --out $out $arguments> /dev/null"; done >> "$queue"; }
+runs() { local seeds=$1 episodes=$2 out=$3 seed; shift 3
+  for seed in $seeds; do printf '%q ' play "$out" --episodes "$episodes" --seed "$seed" "$@"; echo; done >> "$queue"; }
 # 20 episodes per setting: 5 runs (seeds 0, 100, ..., 400) of 4 episodes (episode i uses seed + i)
 run() { runs "0 100 200 300 400" 4 "${OUT:-results/runs}" "$@"; }
 
@@ -90,7 +112,7 @@ fi
 # The suites (benchmark protocol v1): one episode on every layout of cabin-v1-test, then of cabin-v1-ood, each
 # from start poses drawn from the episode's seed (a team's robots too: each drives from where it stands to the
 # start of its share); the classic baselines first, then the shipped policies.
-suite_run() { printf -v arguments '%q ' "$@"; echo "python -m cabinbench.run --seed 0 --out results/runs $arguments> /dev/null" >> "$queue"; }
+suite_run() { { printf '%q ' play results/runs --seed 0 "$@"; echo; } >> "$queue"; }
 for suite in cabin-v1-test cabin-v1-ood; do
   if $classic; then
     suite_run --suite "$suite" --baseline boustrophedon
@@ -193,7 +215,8 @@ for cleaning in results/training/ppo_gail_study_cleaning/seed*/policy.pt; do
   done
 done
 
-xargs -d '\n' -P "$(nproc)" -I{} bash -c {} < "$queue"
+xargs -d '\n' -P "$(nproc)" -I{} bash -c {} < "$queue" ||
+  { echo "some runs did not finish (the others' records are kept); continue with RESUME=1 bash $0 $*" >&2; exit 1; }
 if $classic; then
   bash scripts/random_motion.sh  # the random-motion gap of §5.2.3, factor by factor (results/random_motion.md)
 fi
