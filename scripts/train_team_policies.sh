@@ -3,7 +3,8 @@
 # and 2 one after another (about 15 + 7 minutes a seed on a free core of this 2-core machine):
 # 1. K = 2 on full_cabin: 450 iterations from the shipped ppo_gail's actor with TeamTrainConfig's defaults, the
 #    checkpoint best on validation exported; its records (config, metrics, validation, policy) are kept in
-#    results/training_runs/ppo_gail_team_k2__seed<S>/. A seed whose stage-1 policy is there skips this stage.
+#    results/training_runs/ppo_gail_team_k2__seed<S>/. A seed whose stage-1 policy is there, grown from the
+#    ppo_gail shipped now (init_policy.sha256), skips this stage; one grown from another ppo_gail trains again.
 # 2. K = 4: 100 iterations from stage 1's policy without the entropy bonus (with it the action std grows and the
 #    team slows down: docs/experiments.md, "The learned team"), a checkpoint every 25 validated with four
 #    robots, the best exported. Seed 0 is installed with --ship (baselines/ppo_gail/checkpoints/ppo_gail_team.pt,
@@ -14,14 +15,21 @@
 set -euo pipefail
 seeds=${*:-0 1 2}
 resume_flag() { if [ -d "$1/checkpoints" ]; then echo --resume; fi; }
+init=$(sha256sum baselines/ppo_gail/checkpoints/ppo_gail.pt | cut -c1-64)  # the actor stage 1 starts from
 for seed in $seeds; do
   stage1=results/training_runs/ppo_gail_team_k2__seed$seed
-  if [ ! -f "$stage1/policy.pt" ]; then
+  if [ "$(cat "$stage1/init_policy.sha256" 2>/dev/null)" != "$init" ]; then
     run_dir=runs/train/ppo_gail_team_k2__seed$seed
+    if [ "$(cat "$run_dir/init_policy.sha256" 2>/dev/null)" != "$init" ]; then  # begun from another ppo_gail
+      rm -rf "$run_dir"
+      mkdir -p "$run_dir"
+      echo "$init" > "$run_dir/init_policy.sha256"
+    fi
     python -m cabinbench.train --baseline ppo_gail_team --layout full_cabin --agents 2 --seed "$seed" \
       --iterations 450 --export best --run-dir "$run_dir" $(resume_flag "$run_dir") --no-progress
+    rm -rf "$stage1"
     mkdir -p "$stage1"
-    cp "$run_dir"/{policy.pt,config.json,metrics.csv,validation.csv} "$stage1/"
+    cp "$run_dir"/{policy.pt,config.json,metrics.csv,validation.csv,init_policy.sha256} "$stage1/"
   fi
   if [ "$seed" = 0 ]; then install=--ship; else install=--keep; fi
   run_dir=runs/train/ppo_gail_team__seed$seed
