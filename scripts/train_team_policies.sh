@@ -15,16 +15,17 @@
 set -euo pipefail
 seeds=${*:-0 1 2}
 resume_flag() { if [ -d "$1/checkpoints" ]; then echo --resume; fi; }
-init=$(sha256sum baselines/ppo_gail/checkpoints/ppo_gail.pt | cut -c1-64)  # the actor stage 1 starts from
+sha() { sha256sum "$1" | cut -c1-64; }
+# A run dir holds the sha256 of the policy its run starts from (init_policy.sha256); one begun from another
+# policy starts again, so that no run resumes on top of an actor it did not start from.
+run_dir_from() { if [ "$(cat "$1/init_policy.sha256" 2>/dev/null)" != "$2" ]; then
+  rm -rf "$1" && mkdir -p "$1" && echo "$2" > "$1/init_policy.sha256"; fi; }
+init=$(sha baselines/ppo_gail/checkpoints/ppo_gail.pt)  # the actor stage 1 starts from
 for seed in $seeds; do
   stage1=results/training_runs/ppo_gail_team_k2__seed$seed
   if [ "$(cat "$stage1/init_policy.sha256" 2>/dev/null)" != "$init" ]; then
     run_dir=runs/train/ppo_gail_team_k2__seed$seed
-    if [ "$(cat "$run_dir/init_policy.sha256" 2>/dev/null)" != "$init" ]; then  # begun from another ppo_gail
-      rm -rf "$run_dir"
-      mkdir -p "$run_dir"
-      echo "$init" > "$run_dir/init_policy.sha256"
-    fi
+    run_dir_from "$run_dir" "$init"
     python -m cabinbench.train --baseline ppo_gail_team --layout full_cabin --agents 2 --seed "$seed" \
       --iterations 450 --export best --run-dir "$run_dir" $(resume_flag "$run_dir") --no-progress
     rm -rf "$stage1"
@@ -33,6 +34,7 @@ for seed in $seeds; do
   fi
   if [ "$seed" = 0 ]; then install=--ship; else install=--keep; fi
   run_dir=runs/train/ppo_gail_team__seed$seed
+  run_dir_from "$run_dir" "$(sha "$stage1/policy.pt")"
   python -m cabinbench.train --baseline ppo_gail_team --layout full_cabin --agents 4 --seed "$seed" \
     --iterations 100 --save-interval 25 --validation-interval 25 --export best --init-policy "$stage1/policy.pt" \
     --algorithm '{"entropy_coef": 0.0, "gail_strength": 0.02}' --run-dir "$run_dir" $(resume_flag "$run_dir") \
