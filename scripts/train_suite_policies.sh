@@ -1,17 +1,17 @@
 #!/usr/bin/env bash
 # Train ppo_gail_suite: our ppo_gail trained on the suite cabin-v1-train through CabinBench/Suite-v0 (a new layout
-# of the suite at every reset), seeds 0, 1 and 2 one after another on one core. Seed 0 is installed with --ship
-# (baselines/ppo_gail/checkpoints/ppo_gail_suite.pt, results/training/ppo_gail_suite/), seeds 1 and 2 with --keep
+# of the suite at every reset), seeds 0 to 4 one after another on one core. Seed 0 is installed with --ship
+# (baselines/ppo_gail/checkpoints/ppo_gail_suite.pt, results/training/ppo_gail_suite/), seeds 1 to 4 with --keep
 # (results/training/ppo_gail_suite/seed<S>/). Budget: 400 iterations of 64 envs x 64 steps (1.6 M steps), half the
-# single-cell ppo_gail's 800, so that the three seeds fit one session's core time (24-31 minutes each, validation
-# included, on this shared 2-core machine); the expert demonstrates once on each of 8 suite layouts (the planner is deterministic: a repeat
+# single-cell ppo_gail's 800 (24-31 minutes a seed, validation included, on one core of this shared 2-core
+# machine); the expert demonstrates once on each of 8 suite layouts (the planner is deterministic: a repeat
 # adds nothing); the checkpoints of iterations 200 and 400 play 10 layouts of cabin-v1-val and the better is exported
 # (--export best). An interrupted seed continues with the same
 # command: a run directory with checkpoints is resumed.
-# Usage: bash scripts/train_suite_policies.sh [SEED ...]   (from the repository root; default seeds 0 1 2), then
+# Usage: bash scripts/train_suite_policies.sh [SEED ...]   (from the repository root; default seeds 0 1 2 3 4), then
 # bash scripts/make_results.sh learned to score them (its generalisation-gap runs).
 set -euo pipefail
-seeds=${*:-0 1 2}
+seeds=${*:-0 1 2 3 4}
 for seed in $seeds; do
   if [ "$seed" = 0 ]; then install=--ship; else install=--keep; fi
   run_dir=runs/train/ppo_gail_suite__seed$seed

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Train ppo_gail_team, the learned team (one policy shared by every robot), in two stages per seed; seeds 0, 1
-# and 2 one after another (about 15 + 7 minutes a seed on a free core of this 2-core machine):
+# Train ppo_gail_team, the learned team (one policy shared by every robot), in two stages per seed; seeds 0 to 4
+# one after another (about 15 + 7 minutes a seed on a free core of this 2-core machine):
 # 1. K = 2 on full_cabin: 450 iterations from the shipped ppo_gail's actor with TeamTrainConfig's defaults, the
 #    checkpoint best on validation exported; its records (config, metrics, validation, policy) are kept in
 #    results/training_runs/ppo_gail_team_k2__seed<S>/. A seed whose stage-1 policy is there, grown from the
@@ -8,12 +8,12 @@
 # 2. K = 4: 100 iterations from stage 1's policy without the entropy bonus (with it the action std grows and the
 #    team slows down: docs/experiments.md, "The learned team"), a checkpoint every 25 validated with four
 #    robots, the best exported. Seed 0 is installed with --ship (baselines/ppo_gail/checkpoints/ppo_gail_team.pt,
-#    results/training/ppo_gail_team/), seeds 1 and 2 kept with --keep (results/training/ppo_gail_team/seed<S>/).
+#    results/training/ppo_gail_team/), seeds 1 to 4 kept with --keep (results/training/ppo_gail_team/seed<S>/).
 # An interrupted stage continues with the same command: a run directory with checkpoints is resumed.
-# Usage: bash scripts/train_team_policies.sh [SEED ...]   (from the repository root; default seeds 0 1 2), then
+# Usage: bash scripts/train_team_policies.sh [SEED ...]   (from the repository root; default seeds 0 1 2 3 4), then
 # bash scripts/make_results.sh learned to score them.
 set -euo pipefail
-seeds=${*:-0 1 2}
+seeds=${*:-0 1 2 3 4}
 resume_flag() { if [ -d "$1/checkpoints" ]; then echo --resume; fi; }
 sha() { sha256sum "$1" | cut -c1-64; }
 # A run dir holds the sha256 of the policy its run starts from (init_policy.sha256); one begun from another
