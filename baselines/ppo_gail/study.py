@@ -77,6 +77,7 @@ STUDY: dict[str, Stated] = {
     "gail_learning_rate": Stated(3.0e-4, "ML-Agents' default; Table 5.3 does not set it"),
     "demo_episodes": Stated((34, 32), "§4.3.4, Figs. 4.16, 4.17: 34 and 32 episodes", per_stage=True),
     "observation_size": Stated(244, "Fig. 4.16: Vector Observation Size 244 (rays and velocity)"),
+    "export": Stated("last", "§3.2: after training, TensorFlow generates the network files the brains test"),
 }
 """The study's settings: the values it states, and the defaults of ML-Agents (the toolkit it trained with,
 ``mlagents.py``) for what it leaves to them. Those named like ``TrainConfig`` fields or ``ALGORITHM_KEYS``
@@ -111,8 +112,15 @@ UNSTATED = {
     "demo_random_start": True,
     "demo_action_noise": 0.2,
     "min_action_std": 0.0,  # ML-Agents does not clamp the policy's std
-    "validation_episodes": 0,  # the study watched TensorBoard only; and at 512 x 2 validation is slow
     "save_interval": 25,  # a checkpoint every 51 200 steps: an interruption loses little
+}
+
+CHECKPOINT_CHOICE = {
+    # The benchmark's protocol, where the study exported its last networks: a learner's checkpoint is chosen
+    # on cabin-v1-val, here every 250 iterations (512 000 steps) of the cleaning stage's 2930. The tracking
+    # stage's episodes end at the exit, which cabin-v1-val's single cells lack: it keeps its last checkpoint.
+    "cleaning": {"validation_episodes": 10, "validation_interval": 250, "export": "best"},
+    "tracking": {"validation_episodes": 0, "export": "last"},
 }
 
 
@@ -127,7 +135,16 @@ def study_config(stage: str, **overrides) -> TrainConfig:
     fields["num_mini_batches"] = buffer // STUDY["mini_batch"].of(stage)
     fields["iterations"] = math.ceil(STUDY["steps"].of(stage) / buffer)  # ML-Agents stops at max_steps
     algorithm = {name: STUDY[name].of(stage) for name in ALGORITHM_KEYS}
-    return TrainConfig(**{"ablation": "ppo_gail", "algorithm": algorithm, **fields, **UNSTATED, **overrides})
+    return TrainConfig(
+        **{
+            "ablation": "ppo_gail",
+            "algorithm": algorithm,
+            **fields,
+            **UNSTATED,
+            **CHECKPOINT_CHOICE[stage],
+            **overrides,
+        }
+    )
 
 
 def stage_name(stage: str) -> str:

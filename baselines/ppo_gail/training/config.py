@@ -143,8 +143,7 @@ class TrainConfig:
     those (``from_dict`` reads it as None), so that committed records say where they were validated. A run
     whose episodes end at the exit (``terminate_on_exit``: the study's tracking stage) is not validated on
     cabin-v1-val: its layouts are single cells with no exit to track to, and their clean_score measures
-    cleaning, not the stage's task (``validation_episodes`` 0, as ``study_config`` sets for both stages:
-    the study chose no checkpoint)."""
+    cleaning, not the stage's task (``validation_episodes`` 0, as ``study_config`` sets for that stage)."""
     validation_interval: int = option(200, metavar="N")
     """Validate the checkpoint of every this many iterations, and the last; a checkpoint is written there
     too. Runs before ``validation_suite`` validated every checkpoint (``from_dict``: ``save_interval``)."""
