@@ -372,6 +372,10 @@ CASES = {
         ["baselines.ppo_gail.differences", "--out", "missing/table.md"],
         ["argument --out", "no folder missing"],
     ),
+    "differences: no shipped config": (
+        ["baselines.ppo_gail.differences", "--out", "table.md", "--shipped-config", "missing.json"],
+        ["argument --shipped-config", "no file missing.json"],
+    ),
     "train: --demo-layouts without --suite": (
         ["train", "--baseline", "ppo_gail", "--layout", "a320_cell", "--demo-layouts", "3"],
         ["--demo-layouts goes with --suite"],
