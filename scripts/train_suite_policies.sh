@@ -3,8 +3,8 @@
 # of the suite at every reset), seeds 0 to 4 one after another on one core. Seed 0 is installed with --ship
 # (baselines/ppo_gail/checkpoints/ppo_gail_suite.pt, results/training/ppo_gail_suite/), seeds 1 to 4 with --keep
 # (results/training/ppo_gail_suite/seed<S>/). Budget: 400 iterations of 64 envs x 64 steps (1.6 M steps), half the
-# single-cell ppo_gail's 800 (24-31 minutes a seed, validation included, on one core of this shared 2-core
-# machine); the expert demonstrates once on each of 8 suite layouts (the planner is deterministic: a repeat
+# single-cell ppo_gail's 800 (13-31 minutes a seed, validation included, on one core of this shared 2-core
+# machine, as its load allows); the expert demonstrates once on each of 8 suite layouts (the planner is deterministic: a repeat
 # adds nothing); the checkpoints of iterations 200 and 400 play 10 layouts of cabin-v1-val and the better is exported
 # (--export best). An interrupted seed continues with the same
 # command: a run directory with checkpoints is resumed.

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Train ppo_gail_team, the learned team (one policy shared by every robot), in two stages per seed; seeds 0 to 4
-# one after another (about 15 + 7 minutes a seed on a free core of this 2-core machine):
+# one after another (8-15 + 3-7 minutes of training a seed on one core of this shared 2-core machine):
 # 1. K = 2 on full_cabin: 450 iterations from the shipped ppo_gail's actor with TeamTrainConfig's defaults, the
 #    checkpoint best on validation exported; its records (config, metrics, validation, policy) are kept in
 #    results/training_runs/ppo_gail_team_k2__seed<S>/. A seed whose stage-1 policy is there, grown from the
