@@ -10,11 +10,13 @@
 # at $RAY_ADDRESS (e.g. auto, after `ray start --head` here and `ray start --address=HEAD:6379` on each other node;
 # the repository folder must be shared between them). An interrupted sweep continues with
 # RESUME=1 bash scripts/train_policies.sh: each unfinished run resumes from its latest checkpoint and trains
-# exactly what it would have trained uninterrupted. TRAIN_OPTIONS
+# exactly what it would have trained uninterrupted. The run folders live in results/training_runs/, so that a
+# sweep that outlasts a sitting commits its finished runs as it goes: git ignores what a finished run no longer
+# needs (checkpoints, demonstrations), and a finished run resumes as finished without them. TRAIN_OPTIONS
 # adds options to every run (e.g. "--iterations 2 --validation-episodes 1" for a smoke run: it ships what it trains).
 set -euo pipefail
 seeds=${*:-0 1 2 3 4}
-runs=runs/train_policies  # this script's own run folders
+runs=results/training_runs/train_policies  # this script's own run folders
 baselines="ppo_gail ppo ppo_icm ppo_gail_only"
 if [ "${RESUME:-0}" = 1 ]; then resume=--resume; else resume=""; rm -rf "$runs"; fi
 started=$(date +%s)
@@ -23,7 +25,7 @@ python -m cabinbench.train --baseline $baselines --seeds $seeds --run-dir "$runs
   --executor ray ${RAY_ADDRESS:+--address "$RAY_ADDRESS"} ||
   { echo "the sweep did not finish; continue it with RESUME=1 bash $0 $*" >&2; exit 1; }
 echo "sweep: $(( ($(date +%s) - started) / 60 )) min"
-# Install: a finished run is only exported again (its validation is kept).
+# Install: each finished run as it is.
 for baseline in $baselines; do
   for seed in $seeds; do
     if [ "$seed" = 0 ]; then install=--ship; else install=--keep; fi

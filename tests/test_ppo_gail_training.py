@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -239,6 +240,17 @@ def test_every_checkpoint_is_validated_and_the_last_or_the_best_exported(tmp_pat
     assert _same_actor(result.policy_path, run_dir / "validation" / f"policy_{best:06d}.pt")
     other = next(iteration for iteration in scores if iteration != best)
     assert not _same_actor(result.policy_path, run_dir / "validation" / f"policy_{other:06d}.pt")
+
+    # Finished, the run needs no checkpoint (a sweep's finished runs are kept without theirs): resumed, it
+    # plays, trains and exports nothing and returns its policy; a config that differs is still refused.
+    exported = result.policy_path.read_bytes()
+    shutil.rmtree(run_dir / "checkpoints")
+    best_config = dataclasses.replace(config, export="best")
+    finished = training.train(best_config, run_dir, resume=True, progress=False)
+    assert not played and finished.iterations == 4 and finished.policy_path.read_bytes() == exported
+    assert finished.summary["exported_iteration"] == best and not (run_dir / "checkpoints").exists()
+    with pytest.raises(ValueError, match="num_envs"):
+        training.train(dataclasses.replace(best_config, num_envs=4), run_dir, resume=True, progress=False)
 
 
 def _same_actor(path, other_path) -> bool:

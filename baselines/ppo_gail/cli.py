@@ -36,20 +36,20 @@ suite instead, through ``CabinBench/Suite-v0``: every env draws a new layout of 
 expert demonstrates on ``--demo-layouts`` of its layouts, and the policy ships as ``<baseline>_suite``
 (``ppo_gail_suite``). The run lives in ``--run-dir`` (default ``runs/train/<baseline>__seed<S>``): config,
 demonstrations, checkpoints, ``metrics.csv``, ``curves.png``, the exported ``policy.pt`` and its ONNX twin
-``policy.onnx`` for the ``onnx`` baseline (``ppo_lstm``'s with its memory's state as an input and an
-output). ``--resume`` continues an interrupted run from its latest checkpoint, with the saved config
-(``--iterations`` may raise the total). At the end the policy of every ``--validation-interval``-th checkpoint
-and of the last plays one episode on each of ``--validation-episodes`` layouts of cabin-v1-val from a random
-start (``validation.csv`` in the run directory, with the headline clean_score); ``--export best`` exports the
-checkpoint that did best there instead of the last (see ``TrainConfig.export`` for why the last is the
-default). ``--ship`` copies the exported policy to ``<ship-dir>/<baseline>.pt`` and its twin to
-``<baseline>.onnx`` (``--ship-dir``, default the repository's ``baselines/ppo_gail/checkpoints``: run it from
-the repository root), where ``python -m cabinbench.run --baseline <baseline>`` finds it, and the run's
-``config.json``, ``metrics.csv`` and ``validation.csv`` to ``results/training/<baseline>/``, from which
-``python -m cabinbench.leaderboard`` draws the committed training curves. ``--keep`` copies the policy, its
-twin, ``config.json``, ``metrics.csv`` and ``validation.csv`` to ``results/training/<baseline>/seed<S>/``: a
-further training run of the same command, which ``scripts/make_results.sh`` scores into
-``results/ablation.md``.
+``policy.onnx`` for the ``onnx`` baseline (``ppo_lstm``'s with its memory's state as an input and an output).
+``--resume`` continues an interrupted run from its latest checkpoint, with the saved config (``--iterations``
+may raise the total); a finished run it takes as it is, checkpoints or none. At the end the policy of every
+``--validation-interval``-th checkpoint and of the last plays one episode on each of ``--validation-episodes``
+layouts of cabin-v1-val from a random start (``validation.csv`` in the run directory, with the headline
+clean_score); ``--export best`` exports the checkpoint that did best there instead of the last (see
+``TrainConfig.export`` for why the last is the default). ``--ship`` copies the exported policy to
+``<ship-dir>/<baseline>.pt`` and its twin to ``<baseline>.onnx`` (``--ship-dir``, default the repository's
+``baselines/ppo_gail/checkpoints``: run it from the repository root), where ``python -m cabinbench.run
+--baseline <baseline>`` finds it, and the run's ``config.json``, ``metrics.csv`` and ``validation.csv`` to
+``results/training/<baseline>/``, from which ``python -m cabinbench.leaderboard`` draws the committed training
+curves. ``--keep`` copies the policy, its twin, ``config.json``, ``metrics.csv`` and ``validation.csv`` to
+``results/training/<baseline>/seed<S>/``: a further training run of the same command, which
+``scripts/make_results.sh`` scores into ``results/ablation.md``.
 
 ``--seeds S ...`` trains one run per seed at once, each exactly as ``--seed S`` would, in its own run
 directory ``<name>__seed<S>`` in the folder ``--run-dir`` (default ``runs/train``), one CPU each
@@ -57,7 +57,7 @@ directory ``<name>__seed<S>`` in the folder ``--run-dir`` (default ``runs/train`
 (or a local Ray instance; on several nodes the run directories must be on a shared filesystem). With several
 ``--baseline`` names the sweep trains every seed of each (``scripts/train_policies.sh``: 4 x 3 runs).
 An interrupted sweep continues with the same command and ``--resume``: each unfinished seed resumes from its
-latest checkpoint, a finished one is only exported again.
+latest checkpoint, a finished one is taken as it is (it needs no checkpoint).
 
 ``ppo_lstm`` is PPO with an LSTM memory on lidar and velocity (``RecurrentTrainConfig``); ``bc`` and
 ``dagger`` imitate the boustrophedon expert (``cabinbench.baselines.imitation``), choose their checkpoint on

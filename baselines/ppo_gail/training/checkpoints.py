@@ -85,21 +85,8 @@ def prepare_run_dir(config: TrainConfig, run_dir: Path, resume: bool) -> Path | 
                 f"{run_dir} already holds checkpoints (latest {checkpoint.name}); "
                 "resume it (--resume) or choose another --run-dir"
             )
-    elif saved_config_path.exists():
-        # through TrainConfig: a field added since the run started takes its default, as the resumed run does
-        saved = json.loads(
-            json.dumps(type(config).from_dict(json.loads(saved_config_path.read_text())).to_dict())
-        )
-        differences = sorted(
-            key
-            for key, value in config.to_dict().items()
-            if key not in RESUMABLE_CHANGES and saved.get(key) != json.loads(json.dumps(value))
-        )
-        if differences:
-            raise ValueError(
-                f"cannot resume {run_dir}: the config differs from the saved one in {differences}; "
-                f"only {list(RESUMABLE_CHANGES)} may change"
-            )
+    else:
+        check_resumable(config, run_dir)
     if resume and checkpoint is None:  # a sweep's run that never reached a checkpoint: from the start
         print(f"nothing to resume in {run_dir}: starting a new run", file=sys.stderr)
     (run_dir / CHECKPOINT_DIR).mkdir(parents=True, exist_ok=True)
@@ -107,6 +94,28 @@ def prepare_run_dir(config: TrainConfig, run_dir: Path, resume: bool) -> Path | 
     temporary.write_text(json.dumps(config.to_dict(), indent=2) + "\n")
     os.replace(temporary, saved_config_path)
     return checkpoint if resume else None
+
+
+def check_resumable(config: TrainConfig, run_dir: Path) -> None:
+    """Raise ValueError if the run in ``run_dir`` was started with a config that differs from ``config`` in
+    more than ``RESUMABLE_CHANGES`` (a folder without ``config.json`` starts afresh)."""
+    saved_config_path = run_dir / CONFIG_FILE
+    if not saved_config_path.exists():
+        return
+    # through TrainConfig: a field added since the run started takes its default, as the resumed run does
+    saved = json.loads(
+        json.dumps(type(config).from_dict(json.loads(saved_config_path.read_text())).to_dict())
+    )
+    differences = sorted(
+        key
+        for key, value in config.to_dict().items()
+        if key not in RESUMABLE_CHANGES and saved.get(key) != json.loads(json.dumps(value))
+    )
+    if differences:
+        raise ValueError(
+            f"cannot resume {run_dir}: the config differs from the saved one in {differences}; "
+            f"only {list(RESUMABLE_CHANGES)} may change"
+        )
 
 
 @contextlib.contextmanager

@@ -16,6 +16,7 @@ import numpy as np
 import torch
 from cabinbench.baselines.ppo_gail.runner_config import make_train_cfg
 from cabinbench.baselines.ppo_gail.training.checkpoints import (
+    check_resumable,
     checkpoint_path,
     latest_checkpoint,
     load_checkpoint,
@@ -63,12 +64,15 @@ def train(
 
     Without ``resume`` the run directory must not hold checkpoints yet. With ``resume`` the saved
     ``config.json`` must agree with ``config`` except in ``RESUMABLE_CHANGES``; training continues from the
-    latest checkpoint (or starts, if there is none). Another process training in ``run_dir`` meanwhile is a
-    ``UsageError`` (``run_dir_lock``). Ctrl-C stops after the finished checkpoints and returns with
-    ``interrupted=True`` (a second one, while the run is wound up, is raised).
+    latest checkpoint (or starts, if there is none), and a finished run (``finished_run``) is returned as it
+    is. Another process training in ``run_dir`` meanwhile is a ``UsageError`` (``run_dir_lock``). Ctrl-C
+    stops after the finished checkpoints and returns with ``interrupted=True`` (a second one, while the run
+    is wound up, is raised).
     """
     run_dir = Path(run_dir) if run_dir is not None else default_run_dir(config)
     with run_dir_lock(run_dir):
+        if resume and (result := finished_run(config, run_dir)) is not None:
+            return result
         checkpoint = prepare_run_dir(config, run_dir, resume)
         runner, obs_config = build_runner(config, run_dir)
         initial = {name: getattr(runner.alg, name) for name in LINEAR_DECAY_FINAL}  # before a checkpoint's
@@ -81,6 +85,34 @@ def train(
             runner, config, run_dir, (iteration, train_time), initial, progress
         )
         return conclude(runner, config, obs_config, run_dir, (iteration, train_time), interrupted)
+
+
+def finished_run(config: TrainConfig, run_dir: Path) -> TrainResult | None:
+    """The result of the run in ``run_dir`` if it has finished ``config``, read from its ``policy.pt``; else
+    None. Finished means trained for all ``config.iterations``, every checkpoint due validated, and the
+    policy exported from the checkpoint ``config.export`` names. Such a run needs no checkpoint to be shipped
+    or kept again, so a sweep's finished runs can be kept without theirs."""
+    from cabinbench.baselines.ppo_gail.policy import read_policy_file
+
+    path = run_dir / POLICY_FILE
+    if not path.exists():
+        return None
+    check_resumable(config, run_dir)
+    training = read_policy_file(path)["training"]
+    if (
+        training.get("iterations") != config.iterations
+        or training.get("iterations_planned") != config.iterations
+    ):
+        return None
+    validation = read_validation(run_dir, config)
+    if config.validation_episodes:
+        due = {*range(config.validation_interval, config.iterations + 1, config.validation_interval)}
+        if {int(row["iteration"]) for row in validation} != due | {config.iterations}:
+            return None
+    exported = best_checkpoint(validation)[0] if config.export == "best" else config.iterations
+    if training.get("exported_iteration") != exported:
+        return None
+    return TrainResult(run_dir, path, config.iterations, float(training["train_time_s"]), training)
 
 
 def run_iterations(
