@@ -1,6 +1,7 @@
 """The headline score and the statistics behind the headline table: hand-computed episodes, and
 the property a reader relies on: stopping early with floor left dirty never beats cleaning it."""
 
+import json
 import math
 
 import numpy as np
@@ -10,7 +11,7 @@ from scipy import stats as scipy_stats
 
 from cabinbench.agents import Baseline
 from cabinbench.episodes import run_episode
-from cabinbench.leaderboard.headline import headline_score, success_share
+from cabinbench.leaderboard.headline import headline_score, success_share, training_cost
 from cabinbench.leaderboard.predictors import predictor_finding, predictor_tests
 from cabinbench.metrics import clean_score
 from cabinbench.stats import holm, partial_spearman, reach_time, t_interval
@@ -108,6 +109,34 @@ def test_headline_interval_counts_seeds_or_layouts():
     summary = headline_score(seeds)
     assert summary.n == 3 and 0.0 <= summary.low < summary.mean < summary.high <= 1.0  # t over seeds
     assert success_share(seeds).n == 3
+
+
+def test_a_policy_started_from_another_costs_that_ones_training_too(tmp_path):
+    """The team's seeds each grow from their own stage-1 run, and both of those from the shipped
+    ``ppo_gail``: per seed the three runs add up; over all runs the shared start counts once."""
+    training = tmp_path / "results" / "training"
+
+    def run(folder, steps, seconds, init_policy=None):
+        folder.mkdir(parents=True)
+        (folder / "metrics.csv").write_text(f"iteration,timesteps,train_time\n1,1,0.5\n2,{steps},{seconds}\n")
+        (folder / "config.json").write_text(json.dumps({"init_policy": init_policy}))
+
+    run(training / "ppo_gail", 100, 10.0)
+    run(training / "ppo_gail" / "seed1", 90, 9.0)
+    for seed, (steps, seconds) in enumerate([(20, 2.0), (30, 3.0)]):
+        run(tmp_path / "results" / "training_runs" / f"k2_seed{seed}", steps, seconds, "ppo_gail")
+    run(training / "ppo_gail_team", 5, 1.0, "results/training_runs/k2_seed0/policy.pt")
+    run(training / "ppo_gail_team" / "seed1", 7, 1.5, "results/training_runs/k2_seed1/policy.pt")
+
+    team = training_cost(training, "ppo_gail_team")
+    assert (team.runs, team.env_steps, team.wall_clock_s) == (2, (125 + 137) / 2, (13.0 + 14.5) / 2)
+    assert team.all_runs_wall_clock_s == 1.0 + 1.5 + 2.0 + 3.0 + 10.0
+    alone = training_cost(training, "ppo_gail")  # no init_policy: each run alone
+    assert (alone.runs, alone.env_steps, alone.all_runs_wall_clock_s) == (2, 95.0, 19.0)
+    run(
+        training / "looped", 4, 1.0, "results/training/looped/policy.pt"
+    )  # a start naming itself ends the chain
+    assert training_cost(training, "looped").env_steps == 4.0
 
 
 def test_the_finding_may_say_no():

@@ -54,11 +54,13 @@ OBSERVES = {
 
 @dataclass(frozen=True)
 class TrainingCost:
-    """What training one method cost, over its recorded training runs (one per seed)."""
+    """What training one method cost from scratch, over its recorded training runs (one per seed): a run
+    started from another run's policy (``run_chain``) costs that run's training too."""
 
     env_steps: float  # mean over runs
     wall_clock_s: float  # mean over runs
     runs: int
+    all_runs_wall_clock_s: float  # every run's, a start that several runs share counted once
 
 
 def headline_score(episodes: pd.DataFrame) -> Summary:
@@ -98,20 +100,43 @@ def _clipped(summary: Summary) -> Summary:
 
 
 def training_cost(training: Path, baseline: str) -> TrainingCost | None:
-    """Env steps and wall-clock of a learned baseline's training runs: ``<training>/<baseline>/``
-    and its ``seed*/`` folders (``metrics.csv``'s last row), or, for a baseline shipped as stages
-    (``ppo_gail_study``), the stages' ``<checkpoints>/<baseline>_<stage>.training.json`` summed."""
+    """Env steps and wall-clock of a learned baseline's training runs, ``<training>/<baseline>/`` and its
+    ``seed*/`` folders, each with the runs it started from (``run_chain``): ``metrics.csv``'s last row of
+    each, summed along the chain."""
     runs = [training / baseline, *sorted((training / baseline).glob("seed*"))]
-    costs = []
-    for run in runs:
-        metrics = run / "metrics.csv"
-        if metrics.is_file():
-            last = pd.read_csv(metrics).iloc[-1]
-            costs.append((float(last["timesteps"]), float(last["train_time"])))
-    if not costs:
+    chains = [run_chain(run, training) for run in runs if (run / "metrics.csv").is_file()]
+    if not chains:
         return None
-    steps, seconds = np.mean(costs, axis=0)
-    return TrainingCost(float(steps), float(seconds), len(costs))
+    cost = {run: _run_cost(run) for chain in chains for run in chain}
+    steps, seconds = np.mean([np.sum([cost[run] for run in chain], axis=0) for chain in chains], axis=0)
+    all_runs = sum(seconds for _, seconds in cost.values())
+    return TrainingCost(float(steps), float(seconds), len(chains), float(all_runs))
+
+
+def run_chain(run: Path, training: Path) -> list[Path]:
+    """``run`` and the runs it started from, latest first: a run whose ``config.json`` names an
+    ``init_policy`` (the team's stages) went on from that policy's run, the folder of a policy file (a path
+    from the repository root, ``training``'s grandparent) or, for a shipped policy's name,
+    ``<training>/<name>/``. The chain stops at a start without training records."""
+    chain = [run.resolve()]
+    while True:
+        config = chain[-1] / "config.json"
+        start = (
+            json.loads(config.read_text(encoding="utf-8")).get("init_policy") if config.is_file() else None
+        )
+        if not start:
+            return chain
+        folder = (training.parents[1] / start).parent if start.endswith(".pt") else training / start
+        folder = folder.resolve()
+        if folder in chain or not (folder / "metrics.csv").is_file():
+            return chain
+        chain.append(folder)
+
+
+def _run_cost(run: Path) -> tuple[float, float]:
+    """(env steps, seconds of training) of one run: its ``metrics.csv``'s last row."""
+    last = pd.read_csv(run / "metrics.csv").iloc[-1]
+    return float(last["timesteps"]), float(last["train_time"])
 
 
 def staged_training_cost(checkpoints: Path, baseline: str) -> TrainingCost | None:
@@ -120,9 +145,8 @@ def staged_training_cost(checkpoints: Path, baseline: str) -> TrainingCost | Non
     if not stages:
         return None
     records = [json.loads(path.read_text(encoding="utf-8")) for path in stages]
-    return TrainingCost(
-        float(sum(r["timesteps"] for r in records)), float(sum(r["train_time_s"] for r in records)), 1
-    )
+    seconds = float(sum(r["train_time_s"] for r in records))
+    return TrainingCost(float(sum(r["timesteps"] for r in records)), seconds, 1, seconds)
 
 
 def headline_rows(records: pd.DataFrame, training: Path, checkpoints: Path = CHECKPOINTS) -> list[dict]:
@@ -197,7 +221,8 @@ EXPLANATION = (
     "from its seed. full_cabin: the mean over the method's episodes from the layout's own start "
     "(time: makespan for teams). Cleaned: the share of test "
     "episodes that cleaned the floor. Training: env steps and wall-clock per run, the mean over the "
-    "method's recorded training runs. Sorted by the test score."
+    "method's recorded training runs, each counted from scratch (a run started from another policy, as the "
+    "team's stages are, includes that policy's training). Sorted by the test score."
 )
 
 

@@ -188,7 +188,7 @@ def compute_table(rows: list[dict]) -> str:
         seen.add(row["baseline"])
         lines.append(
             f"| `{row['baseline']}` | {cost.runs} | {cost.env_steps / 1e6:.2f} M | "
-            f"{cost.wall_clock_s / 3600:.2f} | {cost.runs * cost.wall_clock_s / 3600:.2f} |"
+            f"{cost.wall_clock_s / 3600:.2f} | {cost.all_runs_wall_clock_s / 3600:.2f} |"
         )
     return "\n".join(lines)
 
