@@ -6,19 +6,18 @@
 # single-cell ppo_gail's 800 (13-31 minutes a seed, validation included, on one core of this shared 2-core
 # machine, as its load allows); the expert demonstrates once on each of 8 suite layouts (the planner is deterministic: a repeat
 # adds nothing); the checkpoints of iterations 200 and 400 play 10 layouts of cabin-v1-val and the better is exported
-# (--export best). An interrupted seed continues with the same
-# command: a run directory with checkpoints is resumed.
+# (--export best). An interrupted seed continues with the same command, from its latest checkpoint; a finished
+# one is installed as it is. The run folders live in results/training_runs/train_suite_policies/ and are
+# committed as their runs finish (git ignores their checkpoints), as scripts/train_policies.sh's are.
 # Usage: bash scripts/train_suite_policies.sh [SEED ...]   (from the repository root; default seeds 0 1 2 3 4), then
 # bash scripts/make_results.sh learned to score them (its generalisation-gap runs).
 set -euo pipefail
 seeds=${*:-0 1 2 3 4}
 for seed in $seeds; do
   if [ "$seed" = 0 ]; then install=--ship; else install=--keep; fi
-  run_dir=runs/train/ppo_gail_suite__seed$seed
-  resume=""
-  if [ -d "$run_dir/checkpoints" ]; then resume=--resume; fi
+  run_dir=results/training_runs/train_suite_policies/ppo_gail_suite__seed$seed
   python -m cabinbench.train --baseline ppo_gail --suite cabin-v1-train --seed "$seed" --iterations 400 \
     --demo-layouts 8 --demo-episodes 1 --validation-episodes 10 --export best --threads 1 --save-interval 50 \
-    --run-dir "$run_dir" $resume $install --no-progress
+    --run-dir "$run_dir" --resume $install --no-progress
   echo "seed $seed finished at $(date -u +%H:%M:%S)"
 done

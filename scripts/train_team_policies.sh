@@ -9,12 +9,14 @@
 #    team slows down: docs/experiments.md, "The learned team"), a checkpoint every 25 validated with four
 #    robots, the best exported. Seed 0 is installed with --ship (baselines/ppo_gail/checkpoints/ppo_gail_team.pt,
 #    results/training/ppo_gail_team/), seeds 1 to 4 kept with --keep (results/training/ppo_gail_team/seed<S>/).
-# An interrupted stage continues with the same command: a run directory with checkpoints is resumed.
+# An interrupted stage continues with the same command, from its latest checkpoint; a finished one is taken as
+# it is. The run folders live in results/training_runs/train_team_policies/ and are committed as their runs
+# finish (git ignores their checkpoints), as scripts/train_policies.sh's are.
 # Usage: bash scripts/train_team_policies.sh [SEED ...]   (from the repository root; default seeds 0 1 2 3 4), then
 # bash scripts/make_results.sh learned to score them.
 set -euo pipefail
 seeds=${*:-0 1 2 3 4}
-resume_flag() { if [ -d "$1/checkpoints" ]; then echo --resume; fi; }
+runs=results/training_runs/train_team_policies  # this script's own run folders
 sha() { sha256sum "$1" | cut -c1-64; }
 # A run dir holds the sha256 of the policy its run starts from (init_policy.sha256); one begun from another
 # policy starts again, so that no run resumes on top of an actor it did not start from.
@@ -24,20 +26,20 @@ init=$(sha baselines/ppo_gail/checkpoints/ppo_gail.pt)  # the actor stage 1 star
 for seed in $seeds; do
   stage1=results/training_runs/ppo_gail_team_k2__seed$seed
   if [ "$(cat "$stage1/init_policy.sha256" 2>/dev/null)" != "$init" ]; then
-    run_dir=runs/train/ppo_gail_team_k2__seed$seed
+    run_dir=$runs/ppo_gail_team_k2__seed$seed
     run_dir_from "$run_dir" "$init"
     python -m cabinbench.train --baseline ppo_gail_team --layout full_cabin --agents 2 --seed "$seed" \
-      --iterations 450 --export best --run-dir "$run_dir" $(resume_flag "$run_dir") --no-progress
+      --iterations 450 --export best --run-dir "$run_dir" --resume --no-progress
     rm -rf "$stage1"
     mkdir -p "$stage1"
     cp "$run_dir"/{policy.pt,config.json,metrics.csv,validation.csv,init_policy.sha256} "$stage1/"
   fi
   if [ "$seed" = 0 ]; then install=--ship; else install=--keep; fi
-  run_dir=runs/train/ppo_gail_team__seed$seed
+  run_dir=$runs/ppo_gail_team__seed$seed
   run_dir_from "$run_dir" "$(sha "$stage1/policy.pt")"
   python -m cabinbench.train --baseline ppo_gail_team --layout full_cabin --agents 4 --seed "$seed" \
     --iterations 100 --save-interval 25 --validation-interval 25 --export best --init-policy "$stage1/policy.pt" \
-    --algorithm '{"entropy_coef": 0.0, "gail_strength": 0.02}' --run-dir "$run_dir" $(resume_flag "$run_dir") \
+    --algorithm '{"entropy_coef": 0.0, "gail_strength": 0.02}' --run-dir "$run_dir" --resume \
     $install --no-progress
   echo "seed $seed finished at $(date -u +%H:%M:%S)"
 done
