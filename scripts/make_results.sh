@@ -1,33 +1,48 @@
 #!/usr/bin/env bash
 # Regenerate every committed result: the recorded runs, the leaderboard, its figures and the paper.
-# Usage: bash scripts/make_results.sh [learned]   (from the repository root; about half an hour on 2 cores)
+# Usage: bash scripts/make_results.sh [learned [BASELINE ...]]   (from the repository root)
 # It scores the policies in the repository; scripts/train_policies.sh retrains them first, if wanted.
 # With `learned`, only the learned baselines are played again (after retraining them): the records of the classic
-# baselines are kept, since nothing they depend on changed.
-# An interrupted regeneration continues with RESUME=1 bash scripts/make_results.sh [learned]: the runs that had
-# finished keep their records and are not played again; an unfinished run is played again from its start.
+# baselines are kept, since nothing they depend on changed; with baselines named after it, only theirs (a
+# baseline's policies and records stay together: retrain, install and record one baseline at a time).
+# Time on 2 cores: the classic baselines about half an hour; a learned baseline with 5 seeds about half an hour
+# (265 episodes a policy), the team (three team sizes) about an hour.
+# An interrupted regeneration continues with the same command and RESUME=1: the runs that had finished keep their
+# records and are not played again; an unfinished run is played again from its start.
 set -euo pipefail
-learned_baselines="ppo_gail ppo ppo_icm ppo_gail_only ppo_gail_study ppo_gail_team ppo_gail_suite bc dagger ppo_lstm"
+all_learned="ppo_gail ppo ppo_icm ppo_gail_only ppo_gail_study ppo_gail_team ppo_gail_suite bc dagger ppo_lstm"
 staging=runs/make_results  # each run plays into a folder of its own here; its records move on once it has finished
 done_runs=$staging/done    # one line for each finished run: the arguments of its `play`
-if [ $# -gt 1 ] || { [ $# = 1 ] && [ "$1" != learned ]; }; then
-  echo "usage: [RESUME=1] bash scripts/make_results.sh [learned]" >&2
-  exit 2
-elif [ "${RESUME:-0}" = 1 ]; then
-  [ -f "$done_runs" ] || { echo "nothing to resume: no $done_runs; run bash $0 $* to start" >&2; exit 2; }
-  classic=$([ $# = 0 ] && echo true || echo false)
+usage="usage: [RESUME=1] bash scripts/make_results.sh [learned [BASELINE ...]]; learned baselines: $all_learned"
+classic=true learned_baselines=$all_learned
+if [ $# -gt 0 ]; then
+  [ "$1" = learned ] || { echo "$usage" >&2; exit 2; }
+  shift
+  classic=false learned_baselines=${*:-$all_learned}
+  for baseline in $learned_baselines; do
+    [[ " $all_learned " == *" $baseline "* ]] || { echo "no learned baseline $baseline; $usage" >&2; exit 2; }
+  done
+fi
+if [ "${RESUME:-0}" = 1 ]; then
+  [ -f "$done_runs" ] || { echo "nothing to resume: no $done_runs; run the command without RESUME=1" >&2; exit 2; }
 else
-  if [ $# = 1 ]; then
-    classic=false
-    for baseline in $learned_baselines; do rm -f results/runs/*__"$baseline"__*; done
+  if $classic; then
+    rm -rf results/runs results/ablation_runs
   else
-    classic=true
-    rm -rf results/runs
+    for baseline in $learned_baselines; do rm -f results/{runs,ablation_runs}/*__"$baseline"__*; done
   fi
-  rm -rf results/ablation_runs results/figures "$staging"
+  rm -rf results/figures "$staging"
   mkdir -p "$staging"
   : > "$done_runs"
 fi
+learns() { [[ " $learned_baselines " == *" $1 "* ]]; }  # whether this regeneration plays learned baseline $1
+# A learned baseline's policies: "shipped" (baselines/ppo_gail/checkpoints/<baseline>.pt, the default) and each
+# training seed's kept in results/training/<baseline>/seed<S>/ (`train --keep`); policy_config gives a policy's
+# cabinbench.run --config (none for the shipped one).
+policies_of() { local policy
+  [ -f "baselines/ppo_gail/checkpoints/$1.pt" ] && echo shipped
+  for policy in results/training/"$1"/seed*/policy.pt; do [ -f "$policy" ] && echo "$policy"; done; return 0; }
+policy_config() { [ "$1" = shipped ] || printf '%s\n' --config "{\"checkpoint\": \"$1\"}"; }
 # Every run is queued as one `play` line, and the queue runs at the end, one run per core: each run writes files
 # of its own, and the leaderboard orders episodes by seed, not by when they finished.
 play() {  # one run: the folder its records go to, then cabinbench.run's arguments
@@ -80,140 +95,106 @@ if $classic; then
   done
 fi
 
-# Learned policies (shipped checkpoints), zero-shot on all but the training cell. ppo_gail_study is a pair of
-# networks, ppo_gail_study_cleaning.pt and ppo_gail_study_tracking.pt.
+# Learned policies on the named cabin layouts, zero-shot on all but the training cell: the shipped policy's records
+# in results/runs, every other training seed's in results/ablation_runs (results/ablation.md). ppo_gail_study is a
+# pair of networks, ppo_gail_study_cleaning.pt and ppo_gail_study_tracking.pt (further seeds: the pairs kept in
+# results/training/ppo_gail_study_{cleaning,tracking}/seed<S>/, which the reproduction report reads).
 for baseline in $learned_baselines; do
-  [ "$baseline" = ppo_gail_suite ] && continue  # scored on the suites only (below): no classic rows recorded yet
-  if [ -f "baselines/ppo_gail/checkpoints/$baseline.pt" ] || [ -f "baselines/ppo_gail/checkpoints/${baseline}_cleaning.pt" ]; then
-    for layout in a320_cell shape_changed b777_3col full_cabin; do
-      run --baseline "$baseline" --layout "$layout" --protocol sequential
+  [ "$baseline" = ppo_gail_suite ] && continue  # scored on the suites only (below)
+  if [ "$baseline" = ppo_gail_study ]; then
+    [ -f baselines/ppo_gail/checkpoints/ppo_gail_study_cleaning.pt ] && for layout in a320_cell shape_changed b777_3col full_cabin; do
+      run --baseline ppo_gail_study --layout "$layout" --protocol sequential
     done
+    for cleaning in results/training/ppo_gail_study_cleaning/seed*/policy.pt; do
+      tracking=${cleaning/_cleaning/_tracking}
+      [ -f "$cleaning" ] && [ -f "$tracking" ] || continue
+      for layout in a320_cell shape_changed b777_3col full_cabin; do
+        OUT=results/ablation_runs run --baseline ppo_gail_study --layout "$layout" --protocol sequential \
+          --config "{\"cleaning\": \"$cleaning\", \"tracking\": \"$tracking\"}"
+      done
+    done
+    continue
   fi
+  for policy in $(policies_of "$baseline"); do
+    mapfile -t config < <(policy_config "$policy")
+    out=results/runs; [ "$policy" = shipped ] || out=results/ablation_runs
+    for layout in a320_cell shape_changed b777_3col full_cabin; do
+      OUT=$out run --baseline "$baseline" --layout "$layout" --protocol sequential "${config[@]}"
+    done
+  done
 done
 
-# The learned team (ppo_gail_team, one policy shared by the robots) for K = 2, 4 on the two large layouts (K = 1 is
-# recorded above), beside the single-robot ppo_gail run on every robot of the team; every training seed of both.
-if [ -f baselines/ppo_gail/checkpoints/ppo_gail_team.pt ]; then
-  for layout in full_cabin b777_3col; do
-    for agents in 2 4; do
-      for baseline in ppo_gail_team ppo_gail; do
-        runs "0 100" 5 results/runs --agents "$agents" --baseline "$baseline" --layout "$layout" --protocol sequential
-      done
-      for policy in results/training/{ppo_gail,ppo_gail_team}/seed*/policy.pt; do
-        [ -f "$policy" ] || continue
-        baseline=$(basename "$(dirname "$(dirname "$policy")")")
-        runs "0 100" 5 results/ablation_runs --agents "$agents" --baseline "$baseline" --layout "$layout" \
-          --protocol sequential --config "{\"checkpoint\": \"$policy\"}"
+# Teams of K = 2, 4 on the two large layouts (K = 1 is recorded above): the learned team (ppo_gail_team, one policy
+# shared by the robots) beside the single-robot ppo_gail on every robot; every training seed of both.
+for baseline in ppo_gail_team ppo_gail; do
+  learns "$baseline" && [ -f baselines/ppo_gail/checkpoints/ppo_gail_team.pt ] || continue
+  for policy in $(policies_of "$baseline"); do
+    mapfile -t config < <(policy_config "$policy")
+    out=results/runs; [ "$policy" = shipped ] || out=results/ablation_runs
+    for layout in full_cabin b777_3col; do
+      for agents in 2 4; do
+        runs "0 100" 5 "$out" --agents "$agents" --baseline "$baseline" --layout "$layout" --protocol sequential \
+          "${config[@]}"
       done
     done
   done
-fi
+done
 
 # The suites (benchmark protocol v1): one episode on every layout of cabin-v1-test, then of cabin-v1-ood, each
 # from start poses drawn from the episode's seed (a team's robots too: each drives from where it stands to the
-# start of its share); the classic baselines first, then the shipped policies.
+# start of its share), by every policy of every learned baseline (the team with K = 1, 2 and 4); then the
+# classic suite from seeded random starts, 5 episodes a layout, so that the named layouts' intervals measure
+# more than action noise. The classic baselines first.
 suite_run() { { printf '%q ' play results/runs --seed 0 "$@"; echo; } >> "$queue"; }
-for suite in cabin-v1-test cabin-v1-ood; do
+for suite in cabin-v1-test cabin-v1-ood classic; do
+  options=(); [ "$suite" = classic ] && options=(--start random --episodes-per-layout 5)
   if $classic; then
-    suite_run --suite "$suite" --baseline boustrophedon
-    suite_run --suite "$suite" --baseline random_bounce
-    suite_run --suite "$suite" --baseline boustrophedon --agents 2
-    suite_run --suite "$suite" --baseline boustrophedon --agents 4
-  fi
-  for baseline in ppo_gail ppo ppo_icm ppo_gail_only bc dagger ppo_lstm; do
-    if [ -f "baselines/ppo_gail/checkpoints/$baseline.pt" ]; then
-      suite_run --suite "$suite" --baseline "$baseline"
+    for baseline in boustrophedon random_bounce; do suite_run --suite "$suite" "${options[@]}" --baseline "$baseline"; done
+    if [ "$suite" != classic ]; then
+      for agents in 2 4; do suite_run --suite "$suite" --baseline boustrophedon --agents "$agents"; done
     fi
-  done
-  # The learners from the planner (bc, dagger) and with memory (ppo_lstm): every kept seed on every layout.
-  for policy in results/training/{bc,dagger,ppo_lstm}/seed*/policy.pt; do
-    [ -f "$policy" ] || continue
-    baseline=$(basename "$(dirname "$(dirname "$policy")")")
-    suite_run --suite "$suite" --baseline "$baseline" --config "{\"checkpoint\": \"$policy\"}"
-  done
-  if [ -f baselines/ppo_gail/checkpoints/ppo_gail_study_cleaning.pt ]; then
-    suite_run --suite "$suite" --baseline ppo_gail_study
   fi
-done
-
-# The named layouts from seeded random starts too (the classic suite, 5 episodes a layout), so that their intervals
-# measure more than action noise: the planner, random motion, our tuned learner and the study's configuration.
-for baseline in boustrophedon random_bounce ppo_gail ppo_gail_study; do
-  if $classic || [ "$baseline" = ppo_gail ] || [ "$baseline" = ppo_gail_study ]; then
-    suite_run --suite classic --start random --episodes-per-layout 5 --baseline "$baseline"
-  fi
-done
-
-# The learned team on the first 50 layouts of cabin-v1-test, K = 1, 2 and 4, every training seed.
-for policy in baselines/ppo_gail/checkpoints/ppo_gail_team.pt results/training/ppo_gail_team/seed*/policy.pt; do
-  [ -f "$policy" ] || continue
-  config=()
-  if [ "$policy" != baselines/ppo_gail/checkpoints/ppo_gail_team.pt ]; then  # the shipped one runs without
-    config=(--config "{\"checkpoint\": \"$policy\"}")
-  fi
-  for agents in 1 2 4; do
-    suite_run --suite cabin-v1-test --layouts 50 --baseline ppo_gail_team --agents "$agents" "${config[@]}"
+  for baseline in $learned_baselines; do
+    if [ "$baseline" = ppo_gail_study ]; then
+      [ -f baselines/ppo_gail/checkpoints/ppo_gail_study_cleaning.pt ] &&
+        suite_run --suite "$suite" "${options[@]}" --baseline ppo_gail_study
+      continue
+    fi
+    teams=(""); [ "$baseline" = ppo_gail_team ] && teams=("--agents 1" "--agents 2" "--agents 4")
+    for policy in $(policies_of "$baseline"); do
+      mapfile -t config < <(policy_config "$policy")
+      for team in "${teams[@]}"; do
+        # shellcheck disable=SC2086  # $team is empty or "--agents K"
+        suite_run --suite "$suite" "${options[@]}" --baseline "$baseline" $team "${config[@]}"
+      done
+    done
   done
 done
 
-# The generalisation gap (the leaderboard's "Generalisation gap", cabinbench/leaderboard/gap.py): the learned
-# policies trained on the two cells (ppo_gail) and on cabin-v1-train (ppo_gail_suite, scripts/train_suite_policies.sh),
-# every training seed, on layouts they trained on, on 50 layouts of cabin-v1-test and on 25 of cabin-v1-ood; the
-# shipped ppo_gail's test, ood and classic-suite episodes are the ones above. ppo_gail's train column is its two cells
-# from random starts (its classic-suite episodes there, the whole suite played so that the classic suite's table has
-# every seed on every layout; its cabin-v1-train layouts are ones it never saw);
-# ppo_gail_suite's is the first 30 layouts of cabin-v1-train on which every seed's run began an episode for certain,
-# reconstructed from the runs' config.json: suite_draws prints how many of the suite's first layouts hold them.
-# Sized to one session's shared core.
-gap_run() { local suite=$1 layouts=$2 baseline=$3 policy=${4:-}; local config=()
-  if [ -n "$policy" ]; then config=(--config "{\"checkpoint\": \"$policy\"}"); fi
-  suite_run --suite "$suite" --layouts "$layouts" --baseline "$baseline" "${config[@]}"; }
-if [ -f baselines/ppo_gail/checkpoints/ppo_gail.pt ]; then
-  gap_run cabin-v1-train 50 ppo_gail
+# The generalisation gap's train column (the leaderboard's "Generalisation gap", cabinbench/leaderboard/gap.py):
+# ppo_gail's is its two training cells from random starts (its classic-suite episodes above) and, for the record, 50
+# layouts of cabin-v1-train it never saw; ppo_gail_suite's is the first 30 layouts of cabin-v1-train on which every
+# seed's run began an episode for certain, reconstructed from the runs' config.json (suite_draws prints how many of
+# the suite's first layouts hold them). Test and ood are the whole suites, above.
+if learns ppo_gail; then
+  for policy in $(policies_of ppo_gail); do
+    mapfile -t config < <(policy_config "$policy")
+    suite_run --suite cabin-v1-train --layouts 50 --baseline ppo_gail "${config[@]}"
+  done
 fi
-for policy in results/training/ppo_gail/seed*/policy.pt; do
-  [ -f "$policy" ] || continue
-  gap_run cabin-v1-train 50 ppo_gail "$policy"
-  gap_run cabin-v1-test 50 ppo_gail "$policy"
-  gap_run cabin-v1-ood 25 ppo_gail "$policy"
-  suite_run --suite classic --start random --episodes-per-layout 5 --baseline ppo_gail --config "{\"checkpoint\": \"$policy\"}"
-done
-suite_configs=()
-for config in results/training/ppo_gail_suite/config.json results/training/ppo_gail_suite/seed*/config.json; do
-  if [ -f "$config" ]; then suite_configs+=("$config"); fi
-done
-if [ ${#suite_configs[@]} -gt 0 ]; then
-  suite_trained=$(python -m cabinbench.baselines.ppo_gail.training.suite_draws --layouts 30 "${suite_configs[@]}")
+if learns ppo_gail_suite; then
+  suite_configs=()
+  for config in results/training/ppo_gail_suite/config.json results/training/ppo_gail_suite/seed*/config.json; do
+    if [ -f "$config" ]; then suite_configs+=("$config"); fi
+  done
+  if [ ${#suite_configs[@]} -gt 0 ]; then
+    suite_trained=$(python -m cabinbench.baselines.ppo_gail.training.suite_draws --layouts 30 "${suite_configs[@]}")
+    for policy in $(policies_of ppo_gail_suite); do
+      mapfile -t config < <(policy_config "$policy")
+      suite_run --suite cabin-v1-train --layouts "$suite_trained" --baseline ppo_gail_suite "${config[@]}"
+    done
+  fi
 fi
-for policy in baselines/ppo_gail/checkpoints/ppo_gail_suite.pt results/training/ppo_gail_suite/seed*/policy.pt; do
-  [ -f "$policy" ] || continue
-  if [ "$policy" = baselines/ppo_gail/checkpoints/ppo_gail_suite.pt ]; then policy=""; fi  # the shipped one
-  gap_run cabin-v1-test 50 ppo_gail_suite "$policy"
-  gap_run cabin-v1-ood 25 ppo_gail_suite "$policy"
-  gap_run cabin-v1-train "$suite_trained" ppo_gail_suite "$policy"
-done
-
-# The learned baselines' further training runs (results/ablation.md): the policies of seeds 1, 2, ... kept in
-# results/training/<baseline>/seed<S>/ by `python -m cabinbench.train --baseline <baseline> --seed <S> --keep`.
-for policy in results/training/*/seed*/policy.pt; do
-  [ -f "$policy" ] || continue
-  baseline=$(basename "$(dirname "$(dirname "$policy")")")
-  [ "$baseline" = ppo_gail_suite ] && continue  # scored on the suites (above)
-  case $baseline in ppo_gail_study_*) continue ;; esac  # a pair of stages: below
-  for layout in a320_cell shape_changed b777_3col full_cabin; do
-    OUT=results/ablation_runs run --baseline "$baseline" --layout "$layout" --protocol sequential --config "{\"checkpoint\": \"$policy\"}"
-  done
-done
-# The study's configuration, further seeds: the pair `train --baseline ppo_gail_study --stage cleaning|tracking --seed S
-# --keep` kept in results/training/ppo_gail_study_{cleaning,tracking}/seed<S>/ (the reproduction report reads them).
-for cleaning in results/training/ppo_gail_study_cleaning/seed*/policy.pt; do
-  tracking=${cleaning/_cleaning/_tracking}
-  [ -f "$cleaning" ] && [ -f "$tracking" ] || continue
-  for layout in a320_cell shape_changed b777_3col full_cabin; do
-    OUT=results/ablation_runs run --baseline ppo_gail_study --layout "$layout" --protocol sequential \
-      --config "{\"cleaning\": \"$cleaning\", \"tracking\": \"$tracking\"}"
-  done
-done
 
 xargs -d '\n' -P "$(nproc)" -I{} bash -c {} < "$queue" ||
   { echo "some runs did not finish (the others' records are kept); continue with RESUME=1 bash $0 $*" >&2; exit 1; }
