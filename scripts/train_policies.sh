@@ -4,8 +4,8 @@
 # (fixed in advance; installed with --ship, the leaderboard's policies) and at seeds 1 to 4 (kept with
 # --keep, the ablation table's). Training is deterministic on a CPU, whatever the cores a run is given (tested);
 # its runs, swept a few at a time, reproduced the four shipped policies exactly (docs/experiments.md).
-# Usage: bash scripts/train_policies.sh [SEED ...]   (from the repository root; default seeds 0 1 2 3 4), then
-# bash scripts/make_results.sh learned to score them.
+# Usage: [BASELINES="ppo ..."] bash scripts/train_policies.sh [SEED ...]   (from the repository root; default: the
+# four ablations, seeds 0 1 2 3 4), then bash scripts/make_results.sh learned [BASELINE ...] to score them.
 # The runs are Ray tasks, one CPU each: on a Ray instance of this machine started for the sweep, or on the cluster
 # at $RAY_ADDRESS (e.g. auto, after `ray start --head` here and `ray start --address=HEAD:6379` on each other node;
 # the repository folder must be shared between them). An interrupted sweep continues with
@@ -17,8 +17,11 @@
 set -euo pipefail
 seeds=${*:-0 1 2 3 4}
 runs=results/training_runs/train_policies  # this script's own run folders
-baselines="ppo_gail ppo ppo_icm ppo_gail_only"
-if [ "${RESUME:-0}" = 1 ]; then resume=--resume; else resume=""; rm -rf "$runs"; fi
+baselines=${BASELINES:-ppo_gail ppo ppo_icm ppo_gail_only}
+if [ "${RESUME:-0}" = 1 ]; then resume=--resume; else
+  resume=""
+  for baseline in $baselines; do rm -rf "$runs/${baseline}__seed"*; done
+fi
 started=$(date +%s)
 # shellcheck disable=SC2086  # $baselines, $seeds, $resume and $TRAIN_OPTIONS are word lists
 python -m cabinbench.train --baseline $baselines --seeds $seeds --run-dir "$runs" --export best $resume ${TRAIN_OPTIONS:-} \
