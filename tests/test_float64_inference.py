@@ -11,7 +11,7 @@ import onnxruntime
 import pytest
 import torch
 import torch.nn as nn
-from cabinbench.baselines.onnx.export import FLOAT64_ACTIVATIONS, export_onnx
+from cabinbench.baselines.onnx.export import FLOAT64_ACTIVATIONS, export_onnx, export_twin
 from cabinbench.baselines.ppo_gail.memory import RNN_TYPES, rnn
 from cabinbench.baselines.ppo_gail.policy import (
     ACTIVATIONS,
@@ -108,7 +108,8 @@ def test_a_float64_policys_twin_computes_its_mean_action_where_onnxruntime_runs_
     activation, tmp_path
 ):
     """Where onnxruntime runs the activation in float64 the twin's only Cast is the mean action's to float32,
-    and its means are torch's; elsewhere the export is refused in a line."""
+    and its means are torch's; elsewhere the export is refused in a line, which ``train`` prints for the twin
+    (removing one of an earlier export)."""
     policy = mlp_policy(tmp_path / "policy.pt", activation)
     if activation not in FLOAT64_ACTIVATIONS:
         with pytest.raises(PolicyFileError) as raised:
@@ -118,6 +119,9 @@ def test_a_float64_policys_twin_computes_its_mean_action_where_onnxruntime_runs_
             f"{tmp_path / 'policy.pt'}: onnxruntime cannot run activation {activation!r}"
         )
         assert "\n" not in message and not (tmp_path / "policy.onnx").exists()
+        (tmp_path / "policy.onnx").write_bytes(b"an earlier twin")
+        assert export_twin(tmp_path / "policy.pt") == f"none: {message}"
+        assert not (tmp_path / "policy.onnx").exists()
         return
     twin = export_onnx(tmp_path / "policy.pt", tmp_path / "policy.onnx")
     assert [node.op_type for node in onnx.load(twin).graph.node].count("Cast") == 1

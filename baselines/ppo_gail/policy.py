@@ -222,7 +222,8 @@ def export_policy(
 
 def write_policy_file(path: str | os.PathLike, network: nn.Sequential, activation: str, **entries) -> Path:
     """Write the policy file of the MLP ``network`` (Linear, activation, ..., Linear) atomically, with the
-    further ``entries`` of the format (``ablation``, ``obs_normalizer`` ...). Returns the path."""
+    further ``entries`` of the format (``ablation``, ``obs_normalizer`` ...); the policy acts in float64
+    (``inference``). Returns the path."""
     linear_layers = [module for module in network if isinstance(module, nn.Linear)]
     actor = {
         "hidden_dims": [layer.out_features for layer in linear_layers[:-1]],
