@@ -58,8 +58,7 @@ class WrittenOutRNN(nn.Module):
         self.num_layers = num_layers
 
     def forward(self, sequence: torch.Tensor, state):
-        hidden, cell = state if self.lstm else (state, None)
-        hidden, cell = list(hidden), list(cell) if self.lstm else None
+        hidden, cell = (list(state[0]), list(state[1])) if self.lstm else (list(state), None)  # by layer
         outputs = []
         for values in sequence:
             for layer in range(self.num_layers):
