@@ -4,8 +4,11 @@
 
 With no arguments every shipped ``.pt`` (``baselines/ppo_gail/checkpoints``) is exported;
 otherwise the files given, each to the same path with ``.onnx``. The twins run with ``--baseline
-onnx --config '{"file": ".../<name>.onnx"}'`` and give the torch policies' actions
-(tests/test_onnx_baseline.py). Needs ``pip install "cabinbench[train,onnx]"``.
+onnx --config '{"file": ".../<name>.onnx"}'`` and give the torch policies' actions: to the bit where
+the file acts in float64 (its ``inference``, tests/test_onnx_training.py), to 1e-5 in the shipped
+float32 files (tests/test_onnx_baseline.py). A file that has no twin (a float64 policy whose activation
+onnxruntime cannot run in float64) is said in a line, and the exit status is 1. Needs
+``pip install "cabinbench[train,onnx]"``.
 """
 
 from __future__ import annotations
@@ -14,14 +17,19 @@ import sys
 from pathlib import Path
 
 from cabinbench.baselines.onnx.export import export_onnx
-from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR
+from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR, PolicyFileError
 
 
 def main(argv: list[str]) -> int:
     policies = [Path(name) for name in argv] or sorted(CHECKPOINT_DIR.glob("*.pt"))
+    status = 0
     for policy in policies:
-        print(export_onnx(policy, policy.with_suffix(".onnx")))
-    return 0
+        try:
+            print(export_onnx(policy, policy.with_suffix(".onnx")))
+        except PolicyFileError as error:
+            print(error, file=sys.stderr)
+            status = 1
+    return status
 
 
 if __name__ == "__main__":

@@ -102,10 +102,11 @@ def shortest_committed_record(baseline: str) -> dict:
     return min(records, key=lambda record: (record["steps"], record["layout"], record["seed"]))
 
 
-@pytest.mark.parametrize("baseline", ["boustrophedon", "ppo"])
+@pytest.mark.parametrize("baseline", ["boustrophedon", "ppo", "ppo_lstm"])
 def test_run_plays_the_exact_actions_its_committed_records_were_played_with(baseline):
     """float32 actions would move these records: the planner's path length in the 9th digit, the
-    stochastic policy's (float32 means plus float64 noise) coverage in the 3rd."""
+    stochastic policy's (float32 means plus float64 noise) coverage in the 3rd. The policy files, written
+    before their ``inference`` entry, act in float32 as they did, a recurrent one's memory too (issue 44)."""
     record = shortest_committed_record(baseline)
     replayed, _ = run_episode(
         baseline,

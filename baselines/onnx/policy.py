@@ -2,8 +2,9 @@
 
     python -m cabinbench.run --baseline onnx --config '{"file": "policy.onnx"}' --layout a320_cell
 
-The model maps observations ``[batch, D]`` (float32, or float64 if its input says so) to mean
-actions ``[batch, 2]`` in [-1, 1] (linear, angular): its first input and first output. A recurrent
+The model maps observations ``[batch, D]`` (float32, or float64 if its input says so, as the twin of
+a float64 policy file's does) to mean actions ``[batch, 2]`` in [-1, 1] (linear, angular): its first
+input and first output. A recurrent
 model (an LSTM's, a GRU's) takes its memory's state as further inputs and gives the next state as the
 further outputs, in the same order; the state starts at zero at each episode (``export`` writes a
 ``ppo_lstm`` policy so: ``observation, hidden, cell -> action_mean, hidden_out, cell_out``).

@@ -30,14 +30,21 @@ plain values and tensors, written by ``export_policy`` at the end of training
     training            the training summary: iterations, steps, time, final coverage and success ...
     memory              only a recurrent actor's (``ppo_lstm``): its normaliser and RNN, which feed ``actor``
                         (``baselines.ppo_gail.memory``; ``obs_normalizer`` is then None)
+    inference           the precision the policy acts in (``Inference``): "float64" in every file written
+                        now; absent, "float32": the files written before it, every shipped one among them,
+                        play as they did when the committed records were played
 
 The actor is rebuilt here from its saved architecture in plain torch (no rsl-rl import), and reproduces
-rsl-rl's inference policy exactly (tested).
+rsl-rl's inference policy exactly (tested). The baselines act with its ``Inference``. Computed in float64
+(from the float32 weights) and rounded to float32, the mean action of a file's ONNX twin (``baselines.onnx``)
+is the torch policy's, bit for bit, and ``run`` scores the two alike; computed in float32, the two differ by
+~1e-7, which physics amplifies into other episodes.
 """
 
 from __future__ import annotations
 
 import contextlib
+import copy
 import math
 import os
 import pickle
@@ -47,10 +54,13 @@ from pathlib import Path
 import numpy as np
 import torch
 import torch.nn as nn
+from cabinbench.baselines.ppo_gail.memory import memory_entry, rnn
 
 from cabinbench.agents import Baseline, EpisodeContext, exact_action
 
 FORMAT = "cabinbench-policy/1"
+PRECISIONS = {"float32": torch.float32, "float64": torch.float64}
+WRITTEN_PRECISION = "float64"  # the ``inference`` of every file written now
 CHECKPOINT_DIR = Path(__file__).resolve().parent / "checkpoints"
 
 ACTIVATIONS = {
@@ -114,6 +124,62 @@ class Actor(nn.Module):
         return self.mlp(observations)
 
 
+class Inference(nn.Module):
+    """What a read policy file's actor computes for one robot, in the precision of its ``inference`` entry:
+    observation normaliser, a recurrent actor's RNN (``memory.rnn``), MLP. ``forward(observation [B, D],
+    *state) -> (mean action [B, A], *state)``: the observation in ``dtype``, the mean action float32 (rounded
+    from float64 in float64), the RNN's state (``state_names``: hidden (, cell) [L, B, H]; none for an MLP)
+    passed in and out, from ``initial_state()`` on. This module is the file's ONNX twin too
+    (``baselines.onnx.export``).
+
+    In float32 it computes what ``Actor`` and rsl-rl's recurrent actor compute, bit for bit. In float64 its
+    ELU is ``Float64Elu`` and its RNN a ``WrittenOutRNN``, which onnxruntime runs in float64 too."""
+
+    def __init__(self, policy: dict) -> None:
+        super().__init__()
+        self.dtype = PRECISIONS[policy["inference"]]
+        mlp = policy["network"].mlp
+        if self.dtype == torch.float64:
+            mlp = nn.Sequential(
+                *(Float64Elu() if isinstance(layer, nn.ELU) else copy.deepcopy(layer) for layer in mlp)
+            )
+        self.mlp = mlp.to(self.dtype)
+        memory = policy.get("memory")
+        self.rnn = rnn(memory, self.dtype) if memory else None
+        self.state_names = (
+            [] if not memory else ["hidden", "cell"] if memory["rnn_type"] == "lstm" else ["hidden"]
+        )
+        self.state_size = (memory["num_layers"], 1, memory["hidden_size"]) if memory else ()
+        self.observation_size = memory["input_size"] if memory else policy["actor"]["observation_size"]
+        normalizer = memory["obs_normalizer"] if memory else policy["obs_normalizer"]
+        self.normalize = normalizer is not None
+        if normalizer:  # std + eps summed here: torch's exporter rounds a Python float to float32
+            self.register_buffer("mean", normalizer["mean"].reshape(1, -1).to(self.dtype))
+            self.register_buffer(
+                "divisor", normalizer["std"].reshape(1, -1).to(self.dtype) + normalizer["eps"]
+            )
+
+    def initial_state(self) -> tuple[torch.Tensor, ...]:
+        """The zero state of an episode's start for one robot, as rsl-rl's reset leaves it."""
+        return tuple(torch.zeros(self.state_size, dtype=self.dtype) for _ in self.state_names)
+
+    def forward(self, observation: torch.Tensor, hidden=None, cell=None) -> tuple[torch.Tensor, ...]:
+        if self.normalize:
+            observation = (observation - self.mean) / self.divisor
+        state = ()
+        if self.rnn is not None:
+            latent, state = self.rnn(observation.unsqueeze(0), hidden if cell is None else (hidden, cell))
+            observation, state = latent.squeeze(0), state if isinstance(state, tuple) else (state,)
+        return (self.mlp(observation).to(torch.float32), *state)
+
+
+class Float64Elu(nn.Module):
+    """ELU as ``where(x > 0, x, exp(x) - 1)``: onnxruntime's CPU provider has no float64 Elu."""
+
+    def forward(self, values: torch.Tensor) -> torch.Tensor:
+        return torch.where(values > 0, values, torch.exp(values) - 1)
+
+
 # ----------------------------------------------------------------------------------------------------
 # Export (called by training) and loading
 # ----------------------------------------------------------------------------------------------------
@@ -130,8 +196,6 @@ def export_policy(
 ) -> Path:
     """Write the policy file of an rsl-rl ``OnPolicyRunner``'s actor (atomically). Returns the path. A
     recurrent actor's normaliser goes with its RNN, under ``memory`` (``baselines.ppo_gail.memory``)."""
-    from cabinbench.baselines.ppo_gail.memory import memory_entry
-
     model = runner.alg.get_policy()
     normalizer = None
     if model.obs_normalization:
@@ -158,7 +222,8 @@ def export_policy(
 
 def write_policy_file(path: str | os.PathLike, network: nn.Sequential, activation: str, **entries) -> Path:
     """Write the policy file of the MLP ``network`` (Linear, activation, ..., Linear) atomically, with the
-    further ``entries`` of the format (``ablation``, ``obs_normalizer`` ...). Returns the path."""
+    further ``entries`` of the format (``ablation``, ``obs_normalizer`` ...); the policy acts in float64
+    (``inference``). Returns the path."""
     linear_layers = [module for module in network if isinstance(module, nn.Linear)]
     actor = {
         "hidden_dims": [layer.out_features for layer in linear_layers[:-1]],
@@ -169,7 +234,9 @@ def write_policy_file(path: str | os.PathLike, network: nn.Sequential, activatio
     }
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_torch_save({"format": FORMAT, "actor": actor, **_plain(entries)}, path)
+    atomic_torch_save(
+        {"format": FORMAT, "inference": WRITTEN_PRECISION, "actor": actor, **_plain(entries)}, path
+    )
     return path
 
 
@@ -223,6 +290,12 @@ def read_policy_file(path: str | os.PathLike) -> dict:
                 "policy.pt next to checkpoints/."
             )
         raise PolicyFileError(f"{path}: not a cabinbench policy file (expected format {FORMAT!r}).{hint}")
+    data["inference"] = data.get("inference", "float32")
+    if not isinstance(data["inference"], str) or data["inference"] not in PRECISIONS:
+        raise PolicyFileError(
+            f"{path}: inference {data['inference']!r} is not 'float32' or 'float64'; export the policy again "
+            "(train --export-latest writes float64), or remove the entry (float32, as in older files)."
+        )
     try:
         actor = data["actor"]
         network = Actor(
@@ -238,10 +311,11 @@ def read_policy_file(path: str | os.PathLike) -> dict:
         )
         for key in ("ablation", "observation_config"):
             data[key]  # noqa: B018 - presence check
+        network.eval()
+        data["network"] = network
+        data["inference_model"] = Inference(data).eval()
     except (KeyError, TypeError, ValueError, RuntimeError) as error:
         raise PolicyFileError(f"{path}: malformed policy file ({type(error).__name__}: {error}).") from None
-    network.eval()
-    data["network"] = network
     return data
 
 
@@ -311,6 +385,8 @@ class LearnedPolicy(Baseline):
                 f"{self.path}: holds a {self.policy['ablation']!r} policy, not {self.ablation!r}; "
                 f"run it as --baseline {self.policy['ablation']}"
             )
+        self.inference: Inference = self.policy["inference_model"]
+        self.state: tuple[torch.Tensor, ...] = ()
         self.rng: np.random.Generator | None = None
 
     @property
@@ -324,21 +400,20 @@ class LearnedPolicy(Baseline):
         super().reset(context, observation, info)
         env_config = observation_config(context.env_config, np.asarray(observation).shape[-1])
         check_observation_config(self.policy["observation_config"], env_config, self.path)
+        self.state = self.inference.initial_state()
         if self.stochastic:
             self.rng = np.random.default_rng([context.seed, context.agent])
             self.action_std = self.policy["action_std"].numpy().astype(np.float64)
 
     def act(self, observation: np.ndarray, info: dict) -> np.ndarray:
+        observation = torch.as_tensor(observation, dtype=self.inference.dtype).reshape(1, -1)
         with torch.no_grad(), one_torch_thread():
-            mean = self.mean_action(torch.as_tensor(observation, dtype=torch.float32).reshape(1, -1))
+            mean, *state = self.inference(observation, *self.state)
+        self.state = tuple(state)
         action = mean[0].numpy().astype(np.float64)
         if self.stochastic:
             action = action + self.action_std * self.rng.standard_normal(action.shape)
         return np.clip(action, -1.0, 1.0)
-
-    def mean_action(self, observation: torch.Tensor) -> torch.Tensor:
-        """The policy's mean action [1, A] (not clipped) for one observation [1, D]."""
-        return self.policy["network"](observation)
 
 
 class PPOGail(LearnedPolicy):
