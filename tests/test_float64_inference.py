@@ -1,7 +1,8 @@
-"""A policy file's ``inference`` entry (issue 44, ``policy.Inference``): the files written now act in float64
-and round the mean action to float32, which their ONNX twins compute to the bit (tests/test_onnx_training.py
-plays a trained one of each kind against its twin); the files without it, every shipped one, act in float32
-as they did (tests/test_issue45_float32_actions.py replays committed records)."""
+"""A policy file's ``inference`` entry (issue 44, ``networks.Inference``): the files written now act in
+float64 and round the mean action to float32, which their ONNX twins compute to the bit
+(tests/test_onnx_training.py plays a trained one of each kind against its twin); the files without it,
+every shipped one, act in float32 as they did (tests/test_issue45_float32_actions.py replays committed
+records)."""
 
 from __future__ import annotations
 
@@ -13,8 +14,8 @@ import torch
 import torch.nn as nn
 from cabinbench.baselines.onnx.export import FLOAT64_ACTIVATIONS, export_onnx, export_twin
 from cabinbench.baselines.ppo_gail.memory import RNN_TYPES, rnn
+from cabinbench.baselines.ppo_gail.networks import ACTIVATIONS
 from cabinbench.baselines.ppo_gail.policy import (
-    ACTIVATIONS,
     CHECKPOINT_DIR,
     PolicyFileError,
     read_policy_file,

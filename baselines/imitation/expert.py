@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 from cabinbench.baselines.boustrophedon import Boustrophedon
-from cabinbench.baselines.ppo_gail.policy import Actor
+from cabinbench.baselines.ppo_gail.networks import Actor
 
 from cabinbench.agents import EpisodeContext
 
@@ -68,7 +68,7 @@ def learner_snapshot(actor: Actor) -> dict:
 
 
 def make_actor(observation_size: int, hidden_dims, activation: str, normalizer: dict) -> Actor:
-    """ppo_gail's actor (``policy.Actor``: normaliser + MLP) for regression; ``sizes`` remembers its
+    """ppo_gail's actor (``networks.Actor``: normaliser + MLP) for regression; ``sizes`` remembers its
     arguments."""
     actor = Actor(observation_size, 2, hidden_dims, activation, normalizer)
     actor.sizes = (observation_size, list(hidden_dims), activation, normalizer)

@@ -2,7 +2,7 @@
 
     export_onnx("runs/train/ppo_gail__seed0/policy.pt", "policy.onnx")
 
-The actor of a ``cabinbench-policy/1`` file, as its torch baseline computes it (``policy.Inference``:
+The actor of a ``cabinbench-policy/1`` file, as its torch baseline computes it (``networks.Inference``:
 observation normaliser, a recurrent actor's RNN, MLP, in the file's precision), is exported with
 ``torch.onnx.export`` as ``observation [batch, D] -> action_mean [batch, A] float32``, the observation float64
 in a float64 file (the mean computed in float64 and rounded to float32, as torch does, so that the twin's
@@ -33,8 +33,9 @@ from pathlib import Path
 from cabinbench.baselines.onnx.policy import FORMAT
 
 INPUT, OUTPUT = "observation", "action_mean"
-# policy.ACTIVATIONS that onnxruntime's CPU provider runs in float64 (ELU as ``policy.Float64Elu``); it has no
-# float64 kernel for the others (selu, lrelu, softplus, gelu, mish), or computes them in float32 (crelu)
+# networks.ACTIVATIONS that onnxruntime's CPU provider runs in float64 (ELU as ``networks.Float64Elu``); it
+# has no float64 kernel for the others (selu, lrelu, softplus, gelu, mish), or runs
+# them in float32 (crelu)
 FLOAT64_ACTIVATIONS = ("elu", "relu", "tanh", "sigmoid", "swish", "identity")
 
 

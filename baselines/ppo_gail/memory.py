@@ -1,6 +1,6 @@
 """The memory of a recurrent actor (rsl-rl's ``RNNModel``: normaliser, RNN, MLP head) in a policy file: the
 ``memory`` entry of the ``cabinbench-policy/1`` format (``baselines.ppo_gail.policy``), whose ``actor`` is
-then the MLP head on the RNN's output, and the RNN that ``policy.Inference`` runs it with (``rnn``)."""
+then the MLP head on the RNN's output, and the RNN that ``networks.Inference`` runs it with (``rnn``)."""
 
 from __future__ import annotations
 

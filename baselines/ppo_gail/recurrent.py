@@ -10,7 +10,7 @@ from cabinbench.baselines.ppo_gail.policy import LearnedPolicy
 
 class PPOLstm(LearnedPolicy):
     """PPO with an LSTM memory on lidar and velocity only (the module docstring). The hidden state goes on
-    from one ``act`` to the next and starts from zero at ``reset``, as in training (``policy.Inference``).
+    from one ``act`` to the next and starts from zero at ``reset``, as in training (``networks.Inference``).
     Config as ``LearnedPolicy``'s (``checkpoint``, ``stochastic``)."""
 
     name = ablation = "ppo_lstm"
