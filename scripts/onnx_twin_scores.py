@@ -22,9 +22,8 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-import torch
 from cabinbench.baselines.onnx.export import export_onnx
-from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR
+from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR, write_in_float64
 
 from cabinbench.agents import load_baseline, registered_baselines
 from cabinbench.episodes import run_episode
@@ -35,8 +34,7 @@ APART = 0.01  # metres: robots this far apart are on different courses
 
 def float64_copy(checkpoint: Path, folder: Path) -> Path:
     """A copy of ``checkpoint`` in ``folder`` that acts in float64, with its ONNX twin beside it."""
-    copy = folder / checkpoint.name
-    torch.save({**torch.load(checkpoint, weights_only=True), "inference": "float64"}, copy)
+    copy = write_in_float64(checkpoint, folder / checkpoint.name)
     export_onnx(copy, copy.with_suffix(".onnx"))
     return copy
 

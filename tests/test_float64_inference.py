@@ -6,6 +6,11 @@ records)."""
 
 from __future__ import annotations
 
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import onnx
 import onnxruntime
@@ -131,3 +136,28 @@ def test_a_float64_policys_twin_computes_its_mean_action_where_onnxruntime_runs_
     with torch.no_grad():
         (expected,) = policy["inference_model"](observations().double())
     assert mean.dtype == np.float32 and np.array_equal(mean, expected.numpy())
+
+
+def test_export_onnx_float64_makes_a_shipped_float32_policy_act_alike_to_its_twin(tmp_path):
+    """``scripts/export_onnx.py --float64`` on a policy trained before the entry (a copy of the shipped
+    ``ppo``): the same weights, now acting in float64, and ``run`` scores it and its new twin alike."""
+    from cabinbench.episodes import run_episode
+
+    policy = tmp_path / "ppo.pt"
+    shutil.copy(CHECKPOINT_DIR / "ppo.pt", policy)
+    script = Path(__file__).resolve().parents[1] / "scripts" / "export_onnx.py"
+    subprocess.run([sys.executable, str(script), "--float64", str(policy)], check=True, capture_output=True)
+    written, shipped = (torch.load(path, weights_only=True) for path in (policy, CHECKPOINT_DIR / "ppo.pt"))
+    assert written["inference"] == "float64"
+    weights = shipped["actor"]["state_dict"]
+    assert all(torch.equal(written["actor"]["state_dict"][key], value) for key, value in weights.items())
+    episodes = [
+        run_episode(baseline, "a320_cell", 0, env_kwargs={"max_steps": 120}, config=config)
+        for baseline, config in (
+            ("ppo", {"checkpoint": str(policy)}),
+            ("onnx", {"file": str(policy.with_suffix(".onnx"))}),
+        )
+    ]
+    (torch_record, torch_trajectory), (twin_record, twin_trajectory) = episodes
+    assert np.array_equal(torch_trajectory["positions"], twin_trajectory["positions"])
+    assert all(torch_record[name] == twin_record[name] for name in ("coverage", "steps", "path_length"))

@@ -127,6 +127,17 @@ def write_policy_file(path: str | os.PathLike, network: nn.Sequential, activatio
     return path
 
 
+def write_in_float64(path: str | os.PathLike, target: str | os.PathLike | None = None) -> Path:
+    """Write the policy file ``path`` (or a copy of it at ``target``) to act in float64, as every file written
+    now does: the same network, computed in float64 and its mean action rounded to float32, so that its ONNX
+    twin acts alike to the bit. Its episodes change, so the records played with it must be played again.
+    Returns the path written."""
+    read_policy_file(path)  # a bad file is a PolicyFileError before anything is written
+    target = Path(path if target is None else target)
+    atomic_torch_save({**torch.load(path, weights_only=True), "inference": WRITTEN_PRECISION}, target)
+    return target
+
+
 def atomic_torch_save(obj, path: Path) -> None:
     """Write ``obj`` to ``path`` via a temporary file and ``os.replace``: a reader (or an interruption) never
     sees a half-written file."""
