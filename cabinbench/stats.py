@@ -236,32 +236,63 @@ def _counts(indices: np.ndarray, size: int) -> np.ndarray:
     return np.bincount(flat, minlength=rows * size).reshape(rows, size).astype(float)
 
 
-def stratified_bootstrap(cells: Mapping[tuple[str, str], Sequence[float]]) -> Summary:
+def stratified_bootstrap(
+    cells: Mapping[tuple[str, str], Sequence[float]], own_layouts: bool = False
+) -> Summary:
     """Mean over training seeds of the mean over layouts of per-layout means, with a stratified
     bootstrap interval.
 
     ``cells`` maps (training seed or policy, layout) to the values of that cell's distinct
-    episodes; every seed must have every layout. Each resample draws the seeds with replacement,
-    the layouts with replacement (the same draw for every seed: layouts are crossed with seeds),
-    and the episodes of each cell with replacement. One cell is :func:`mean_ci`; a single unit in
-    all has no interval. ``n`` counts the distinct episodes.
+    episodes. Each resample draws the seeds with replacement, the layouts with replacement and the
+    episodes of each cell with replacement. Layouts are crossed with seeds (every seed has every
+    layout, and one draw of them serves every seed), or with ``own_layouts`` nested in them (each
+    seed has layouts of its own, e.g. those its run trained on, drawn apart). One cell is
+    :func:`mean_ci`; a single unit in all has no interval. ``n`` counts the distinct episodes.
     """
-    policies = sorted({policy for policy, _ in cells})
-    layouts = sorted({layout for _, layout in cells})
-    missing = [(p, layout) for p in policies for layout in layouts if (p, layout) not in cells]
-    if missing:
-        raise ValueError(f"stratified_bootstrap: no episodes for (seed, layout) {missing[0]}")
-    values = {key: _numbers(cell) for key, cell in cells.items()}
-    if any(len(cell) == 0 for cell in values.values()):
-        raise ValueError("stratified_bootstrap: a (seed, layout) cell has no episodes")
+    values = _checked_cells(cells, own_layouts)
     if len(values) == 1:
         return mean_ci(next(iter(values.values())))
     rng = np.random.default_rng(BOOTSTRAP_SEED)
-    mean, resampled = _resampled_cells(values, rng)
-    seed_weights = _resample_weights(rng, len(policies))
-    layout_weights = _resample_weights(rng, len(layouts))
-    estimates = np.einsum("bp,bpl,bl->b", seed_weights, resampled, layout_weights)
+    if own_layouts:
+        mean, per_seed = _nested_seed_estimates(values, rng)
+        estimates = np.einsum("bp,bp->b", _resample_weights(rng, per_seed.shape[1]), per_seed)
+    else:
+        mean, resampled = _resampled_cells(values, rng)
+        seed_weights = _resample_weights(rng, resampled.shape[1])
+        layout_weights = _resample_weights(rng, resampled.shape[2])
+        estimates = np.einsum("bp,bpl,bl->b", seed_weights, resampled, layout_weights)
     return Summary(mean, *_percentile_interval(estimates), sum(len(cell) for cell in values.values()))
+
+
+def _checked_cells(cells: Mapping[tuple[str, str], Sequence[float]], own_layouts: bool) -> dict:
+    """The cells as arrays; a ValueError where a cell has no episodes, or, with layouts crossed with seeds,
+    a seed lacks a layout."""
+    if not own_layouts:
+        policies = sorted({policy for policy, _ in cells})
+        layouts = sorted({layout for _, layout in cells})
+        missing = [(p, layout) for p in policies for layout in layouts if (p, layout) not in cells]
+        if missing:
+            raise ValueError(f"stratified_bootstrap: no episodes for (seed, layout) {missing[0]}")
+    values = {key: _numbers(cell) for key, cell in cells.items()}
+    if any(len(cell) == 0 for cell in values.values()):
+        raise ValueError("stratified_bootstrap: a (seed, layout) cell has no episodes")
+    return values
+
+
+def _nested_seed_estimates(values: Mapping[tuple[str, str], np.ndarray], rng) -> tuple[float, np.ndarray]:
+    """Layouts nested in seeds: the mean over seeds of each seed's mean over its own layouts of per-cell
+    means, and (RESAMPLES, seeds): each seed's mean over its layouts drawn with replacement of its cells'
+    means over their episodes drawn with replacement (seeds sorted)."""
+    policies = sorted({policy for policy, _ in values})
+    means, per_seed = [], np.empty((RESAMPLES, len(policies)))
+    for i, p in enumerate(policies):
+        own = [values[key] for key in sorted(key for key in values if key[0] == p)]
+        cells = np.stack(
+            [cell[rng.integers(0, len(cell), (RESAMPLES, len(cell)))].mean(axis=1) for cell in own]
+        )
+        per_seed[:, i] = np.einsum("bl,lb->b", _resample_weights(rng, len(own)), cells)
+        means.append(np.mean([cell.mean() for cell in own]))
+    return float(np.mean(means)), per_seed
 
 
 def _resampled_cells(values: Mapping[tuple[str, str], np.ndarray], rng) -> tuple[float, np.ndarray]:
@@ -279,27 +310,34 @@ def _resampled_cells(values: Mapping[tuple[str, str], np.ndarray], rng) -> tuple
 
 
 def stratified_difference(
-    x: Mapping[tuple[str, str], Sequence[float]], y: Mapping[tuple[str, str], Sequence[float]]
+    x: Mapping[tuple[str, str], Sequence[float]],
+    y: Mapping[tuple[str, str], Sequence[float]],
+    x_own_layouts: bool = False,
 ) -> Summary:
     """The :func:`stratified_bootstrap` score of ``y`` minus that of ``x``: the same training seeds on two
-    sets of layouts (a generalisation gap: test minus train). Each resample draws the seeds once for both
-    (a seed's two scores are paired), and the layouts and episodes of each side apart. Without the same
-    seeds on both sides (or with one cell a side) the difference has no interval. ``n`` counts both sides'
-    distinct episodes."""
-    sides = [{key: _numbers(cell) for key, cell in cells.items()} for cells in (x, y)]
-    for side in sides:
-        stratified_bootstrap(side)  # the same checks: every seed has every layout, no empty cell
+    sets of layouts (a generalisation gap: test minus train), ``x``'s layouts nested in its seeds with
+    ``x_own_layouts``. Each resample draws the seeds once for both (a seed's two scores are paired), and the
+    layouts and episodes of each side apart. Without the same seeds on both sides (or with one cell a side)
+    the difference has no interval. ``n`` counts both sides' distinct episodes."""
+    sides = [_checked_cells(x, x_own_layouts), _checked_cells(y, False)]
     seeds = [sorted({policy for policy, _ in side}) for side in sides]
     n = sum(len(cell) for side in sides for cell in side.values())
     rng = np.random.default_rng(BOOTSTRAP_SEED)
-    (x_mean, x_cells), (y_mean, y_cells) = (_resampled_cells(side, rng) for side in sides)
+    if x_own_layouts:
+        x_mean, x_seeds = _nested_seed_estimates(sides[0], rng)
+    else:
+        x_mean, x_cells = _resampled_cells(sides[0], rng)
+    y_mean, y_cells = _resampled_cells(sides[1], rng)
     if seeds[0] != seeds[1] or any(len(side) == 1 for side in sides):
         return Summary(y_mean - x_mean, math.nan, math.nan, n)
     seed_weights = _resample_weights(rng, len(seeds[0]))
-    x_layouts, y_layouts = (_resample_weights(rng, cells.shape[2]) for cells in (x_cells, y_cells))
-    estimates = np.einsum("bp,bpl,bl->b", seed_weights, y_cells, y_layouts) - np.einsum(
-        "bp,bpl,bl->b", seed_weights, x_cells, x_layouts
-    )
+    if x_own_layouts:
+        y_layouts = _resample_weights(rng, y_cells.shape[2])
+        x_estimates = np.einsum("bp,bp->b", seed_weights, x_seeds)
+    else:
+        x_layouts, y_layouts = (_resample_weights(rng, cells.shape[2]) for cells in (x_cells, y_cells))
+        x_estimates = np.einsum("bp,bpl,bl->b", seed_weights, x_cells, x_layouts)
+    estimates = np.einsum("bp,bpl,bl->b", seed_weights, y_cells, y_layouts) - x_estimates
     return Summary(y_mean - x_mean, *_percentile_interval(estimates), n)
 
 

@@ -173,9 +173,9 @@ done
 
 # The generalisation gap's train column (the leaderboard's "Generalisation gap", cabinbench/leaderboard/gap.py):
 # ppo_gail's is its two training cells from random starts (its classic-suite episodes above) and, for the record, 50
-# layouts of cabin-v1-train it never saw; ppo_gail_suite's is the first 30 layouts of cabin-v1-train on which every
-# seed's run began an episode for certain, reconstructed from the runs' config.json (suite_draws prints how many of
-# the suite's first layouts hold them). Test and ood are the whole suites, above.
+# layouts of cabin-v1-train it never saw; ppo_gail_suite's is, for each training seed, the first 30 layouts of
+# cabin-v1-train on which its run began an episode for certain, reconstructed from the run's config.json
+# (suite_draws prints how many of the suite's first layouts hold them). Test and ood are the whole suites, above.
 if learns ppo_gail; then
   for policy in $(policies_of ppo_gail); do
     mapfile -t config < <(policy_config "$policy")
@@ -183,17 +183,13 @@ if learns ppo_gail; then
   done
 fi
 if learns ppo_gail_suite; then
-  suite_configs=()
-  for config in results/training/ppo_gail_suite/config.json results/training/ppo_gail_suite/seed*/config.json; do
-    if [ -f "$config" ]; then suite_configs+=("$config"); fi
+  for policy in $(policies_of ppo_gail_suite); do
+    run_config=results/training/ppo_gail_suite/config.json
+    [ "$policy" = shipped ] || run_config=$(dirname "$policy")/config.json
+    trained=$(python -m cabinbench.baselines.ppo_gail.training.suite_draws --layouts 30 "$run_config")
+    mapfile -t config < <(policy_config "$policy")
+    suite_run --suite cabin-v1-train --layouts "$trained" --baseline ppo_gail_suite "${config[@]}"
   done
-  if [ ${#suite_configs[@]} -gt 0 ]; then
-    suite_trained=$(python -m cabinbench.baselines.ppo_gail.training.suite_draws --layouts 30 "${suite_configs[@]}")
-    for policy in $(policies_of ppo_gail_suite); do
-      mapfile -t config < <(policy_config "$policy")
-      suite_run --suite cabin-v1-train --layouts "$suite_trained" --baseline ppo_gail_suite "${config[@]}"
-    done
-  fi
 fi
 
 xargs -d '\n' -P "$(nproc)" -I{} bash -c {} < "$queue" ||

@@ -5,6 +5,7 @@ section, whose train column is each policy's own training layouts."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 from cabinbench.baselines.ppo_gail.training import suite_draws
@@ -73,40 +74,56 @@ def test_the_sample_is_the_layouts_every_run_trained_on_in_the_suite_order_and_t
     assert capsys.readouterr().err.count("\n") == 2
 
 
-def test_the_train_column_is_the_layouts_the_policy_trained_on(tmp_path):
-    """A learner trained on a320_cell (two seeds, each with its config.json) with records on cabin-v1-train,
-    -test, -ood and on the classic suite from random starts: its train column is its a320_cell episodes from
-    random starts (not the cabin-v1-train ones), the section says so, and test − train pairs the seeds."""
+def two_ppo_seeds(tmp_path, configs: list[dict]) -> tuple[Path, Path]:
+    """A training folder of ``ppo``: the shipped policy and a copy kept as seed 1, each with its run's
+    ``config.json`` (``configs``); the folder and seed 1's policy file."""
     from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR
 
     training = tmp_path / "training"
     other = training / "ppo" / "seed1" / "policy.pt"
     other.parent.mkdir(parents=True)
     other.write_bytes((CHECKPOINT_DIR / "ppo.pt").read_bytes())
+    for folder, config in zip((training / "ppo", other.parent), configs):
+        (folder / "config.json").write_text(json.dumps(config))
+    return training, other
+
+
+def ppo_run(runs: Path, policy_config: dict) -> list[str]:
+    """``run``'s options for short ``ppo`` episodes of one policy, recorded in ``runs``."""
+    return [
+        "--baseline",
+        "ppo",
+        "--max-steps",
+        "30",
+        "--out",
+        str(runs),
+        "--config",
+        json.dumps(policy_config),
+    ]
+
+
+def gap_table_row(runs: Path, training: Path, out: Path) -> tuple[str, list[str]]:
+    """The leaderboard's generalisation-gap section built from ``runs`` and ``ppo``'s row of its table."""
+    assert leaderboard.main(["--runs", str(runs), "--out", str(out), "--training", str(training)]) == 0
+    section = (out / "leaderboard.md").read_text().split("#### Generalisation gap")[1]
+    line = next(line for line in section.splitlines() if line.startswith("| ppo |"))
+    return section, [cell.strip() for cell in line.strip("|").split("|")]
+
+
+def test_the_train_column_is_the_layouts_the_policy_trained_on(tmp_path):
+    """A learner trained on a320_cell (two seeds, each with its config.json) with records on cabin-v1-train,
+    -test, -ood and on the classic suite from random starts: its train column is its a320_cell episodes from
+    random starts (not the cabin-v1-train ones), the section says so, and test − train pairs the seeds."""
     cells = TrainConfig(layouts=["a320_cell"]).to_dict()
-    for folder in (training / "ppo", other.parent):
-        (folder / "config.json").write_text(json.dumps(cells))
+    training, other = two_ppo_seeds(tmp_path, [cells, cells])
     runs = tmp_path / "runs"
     for config in ({}, {"checkpoint": str(other)}):
-        common = [
-            "--baseline",
-            "ppo",
-            "--max-steps",
-            "30",
-            "--out",
-            str(runs),
-            "--config",
-            json.dumps(config),
-        ]
+        common = ppo_run(runs, config)
         for suite in ("cabin-v1-train", "cabin-v1-test", "cabin-v1-ood"):
             assert run_main([*common, "--suite", suite, "--layouts", "2"])[0] == 0
         classic = ["--suite", "classic", "--layouts", "2", "--start", "random", "--episodes-per-layout", "2"]
         assert run_main([*common, *classic])[0] == 0
-    out = tmp_path / "out"
-    assert leaderboard.main(["--runs", str(runs), "--out", str(out), "--training", str(training)]) == 0
-    section = (out / "leaderboard.md").read_text().split("#### Generalisation gap")[1]
-    line = next(line for line in section.splitlines() if line.startswith("| ppo |"))
-    row = [cell.strip() for cell in line.strip("|").split("|")]
+    section, row = gap_table_row(runs, training, tmp_path / "out")
     records = read_records(runs)
 
     def cells_of(chosen):
@@ -128,3 +145,47 @@ def test_the_train_column_is_the_layouts_the_policy_trained_on(tmp_path):
     assert row[5] == f"{gap.mean:+.3f} [{gap.low:+.3f}, {gap.high:+.3f}]"
     assert "The train column is ppo: its training cells, a320_cell." in section
     assert f"Finding: ppo covers {train_score.mean:.3f} of the layouts it trained on" in section
+
+
+def test_a_suite_learners_seeds_with_layouts_of_their_own_are_scored_each_on_its_own(tmp_path, monkeypatch):
+    """Two seeds' suite runs that seeded their envs apart trained on other layouts: each seed's train
+    column is its own first layouts (here 1, the sample size set low), drawn apart in the bootstrap
+    (layouts nested in the seeds), and the section says so; test − train still pairs the seeds."""
+    from cabinbench.leaderboard import gap
+
+    monkeypatch.setattr(gap, "TRAIN_SAMPLE", 1)
+    runs_config = [tiny_suite_run(0, True), tiny_suite_run(1, True)]
+    samples = [training_sample([config], 1) for config in runs_config]
+    assert samples[0] != samples[1]
+    training, other = two_ppo_seeds(tmp_path, runs_config)
+    names = get_suite("cabin-v1-train").layout_names
+    first = [names.index(sample[0]) + 1 for sample in samples]
+    runs = tmp_path / "runs"
+    for config, layouts in zip(({}, {"checkpoint": str(other)}), first):
+        common = ppo_run(runs, config)
+        assert run_main([*common, "--suite", "cabin-v1-train", "--layouts", str(layouts)])[0] == 0
+        assert run_main([*common, "--suite", "cabin-v1-test", "--layouts", "2"])[0] == 0
+    section, row = gap_table_row(runs, training, tmp_path / "out")
+    records = read_records(runs)
+    policies = records["baseline_config"].map(policy_of)
+    train = records[records["suite"] == "cabin-v1-train"]
+    own = {
+        (policy, sample[0]): train.loc[
+            (policies[train.index] == policy) & (train["layout"] == sample[0]), "coverage"
+        ].tolist()
+        for policy, sample in zip(("shipped", str(other)), samples)
+    }
+    test = records[records["suite"] == "cabin-v1-test"]
+    held_out = {
+        (policy, layout): group["coverage"].tolist()
+        for (policy, layout), group in test.assign(policy=policies[test.index]).groupby(["policy", "layout"])
+    }
+    train_score = stratified_bootstrap(own, own_layouts=True)
+    assert all(len(episodes) == 1 for episodes in own.values())
+    assert row[2] == f"{train_score.mean:.3f} ± {(train_score.high - train_score.low) / 2:.3f} (2)"
+    gap_score = stratified_difference(own, held_out, x_own_layouts=True)
+    assert row[5] == f"{gap_score.mean:+.3f} [{gap_score.low:+.3f}, {gap_score.high:+.3f}]"
+    assert (
+        f"ppo: for each of its 2 training seeds, the first 1 layouts of cabin-v1-train (of the suite's first "
+        f"{min(first)}-{max(first)})" in section
+    )

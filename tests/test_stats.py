@@ -80,6 +80,20 @@ def test_stratified_bootstrap_by_hand():
         stratified_bootstrap({("s0", "a"): [1.0], ("s1", "b"): [1.0]})
 
 
+def test_stratified_bootstrap_with_layouts_nested_in_the_seeds():
+    """Each seed on layouts of its own (a suite learner's training layouts): the mean over seeds of each
+    seed's mean over its layouts, and each seed's layouts drawn apart."""
+    own = {("s0", "a"): [0.0], ("s0", "b"): [1.0], ("s1", "c"): [0.2], ("s1", "d"): [0.4, 0.6]}
+    nested = stratified_bootstrap(own, own_layouts=True)
+    assert (nested.mean, nested.n) == (pytest.approx(((0.0 + 1.0) / 2 + (0.2 + 0.5) / 2) / 2), 5)
+    assert 0.0 <= nested.low < nested.mean < nested.high <= 1.0
+    # seeds that share their layouts still resample alike whether drawn as one sample or apart
+    one_seed = {("s0", "a"): [0.0], ("s0", "b"): [1.0]}
+    assert stratified_bootstrap(one_seed, own_layouts=True).mean == stratified_bootstrap(one_seed).mean
+    with pytest.raises(ValueError, match="no episodes"):
+        stratified_bootstrap({("s0", "a"): []}, own_layouts=True)
+
+
 def test_summarize_cells():
     # several training seeds: each seed's own rate, then a t interval over the seeds
     cells = {("s0", "a"): [True, True], ("s1", "a"): [True, False]}
@@ -160,3 +174,9 @@ def test_stratified_difference_pairs_the_training_seeds():
         train, {(seed + 1, layout): cell for (seed, layout), cell in test.items()}
     )
     assert math.isnan(unpaired.low) and unpaired.mean == pytest.approx(gap.mean)
+    # the train side's layouts nested in its seeds (each seed its own): paired as before, the mean as by hand
+    own_train = {(seed, f"t{seed}-{layout}"): cell for (seed, layout), cell in train.items()}
+    nested = stratified_difference(own_train, test, x_own_layouts=True)
+    expected = stratified_bootstrap(test).mean - stratified_bootstrap(own_train, own_layouts=True).mean
+    assert nested.mean == pytest.approx(expected) == pytest.approx(gap.mean)
+    assert nested.low < nested.mean < nested.high

@@ -7,8 +7,10 @@ The train column is each learner's own training layouts, read from its runs' ``c
 (the baseline's ``training_layouts``, through the registry: ``baselines/ppo_gail/training/suite_draws.py``
 for the learners here): a run on cells trained on
 those cells; a run on the suite drew a layout at every reset, which the config fixes, so the column is
-the first layouts of the suite that every seed's run began an episode on for certain. The first layouts
+each seed's first layouts of the suite that its run began an episode on for certain. The first layouts
 of a suite are not its training layouts: a run of 322 episodes over 500 layouts never saw most of them.
+Where the seeds' samples differ (runs with env seeds of their own) the layouts are nested in the seeds,
+and the bootstrap draws each seed's apart; where they are one sample, crossed with them.
 """
 
 from __future__ import annotations
@@ -29,8 +31,8 @@ GAP_SPLITS = {"train": "cabin-v1-train", "test": "cabin-v1-test", "ood": "cabin-
 """The generalisation gap's splits: the training suite, its held-out test split, out of distribution."""
 GAP_METRIC = "coverage"
 TRAIN_SAMPLE = 30
-"""How many of a suite learner's training layouts the train column scores (``scripts/make_results.sh``
-plays the suite's first layouts up to the last of them)."""
+"""How many of a suite learner's training layouts the train column scores, per training seed
+(``scripts/make_results.sh`` plays, for each seed, the suite's first layouts up to the last of its own)."""
 
 
 def training_configs(policies: set[str], baseline: str, training: Path) -> dict[str, dict]:
@@ -45,23 +47,34 @@ def training_configs(policies: set[str], baseline: str, training: Path) -> dict[
 
 
 def train_split(episodes: pd.DataFrame, baseline: str, training: Path) -> tuple[pd.DataFrame, dict]:
-    """The baseline's episodes from random starts on its training sample, by the policies whose training
-    config is known, and what the sample is: ``layouts``, ``suite`` (None: cells), ``first`` (the suite's
-    first layouts holding it), ``policies``, ``shared_envs`` of ``num_envs`` (envs the runs seeded alike)."""
+    """The baseline's episodes from random starts on each policy's training sample, by the policies whose
+    training config is known, and what the samples are: ``layouts`` ({policy: its sample}), ``own`` (whether
+    they differ: layouts nested in seeds), ``suite`` (None: cells), ``first`` (the fewest and the most of the
+    suite's first layouts holding a sample), ``policies``, ``shared_envs`` of ``num_envs`` (envs the runs
+    seeded alike)."""
     policies = {policy_of(config) for config in episodes["baseline_config"]}
     configs = training_configs(policies, baseline, training)
-    sample, shared = baseline_class(baseline).training_layouts(list(configs.values()), TRAIN_SAMPLE)
+    learner = baseline_class(baseline)
+    samples = {
+        policy: learner.training_layouts([config], TRAIN_SAMPLE)[0] for policy, config in configs.items()
+    }
+    shared = learner.training_layouts(list(configs.values()), TRAIN_SAMPLE)[1] if configs else 0
     suite = next(iter(configs.values())).get("suite") if configs else None
     policy = episodes["baseline_config"].map(policy_of)
-    chosen = episodes[from_random_starts(episodes) & policy.isin(configs) & episodes["layout"].isin(sample)]
+    own_sample = pd.Series(
+        [layout in samples.get(name, ()) for name, layout in zip(policy, episodes["layout"])], episodes.index
+    )
+    chosen = episodes[from_random_starts(episodes) & policy.isin(configs) & own_sample]
     if suite:
         chosen = chosen[chosen["suite"] == suite]
     first = None
-    if suite and sample:
-        first = get_suite(suite).layout_names.index(sample[-1]) + 1
+    if suite and any(samples.values()):
+        ends = [get_suite(suite).layout_names.index(sample[-1]) + 1 for sample in samples.values() if sample]
+        first = (min(ends), max(ends))
     envs = max((config["num_envs"] for config in configs.values()), default=0)
     return chosen, {
-        "layouts": sample,
+        "layouts": samples,
+        "own": len({tuple(sample) for sample in samples.values()}) > 1,
         "suite": suite,
         "first": first,
         "policies": len(configs),
@@ -86,14 +99,15 @@ def gap_rows(records: pd.DataFrame, training: Path) -> list[dict]:
             chosen = trained if split == "train" else own[own["suite"] == suite]
             if chosen.empty:
                 continue
-            found, _ = suite_cells(chosen)
+            own_layouts = split == "train" and sample["own"]
+            found, _ = suite_cells(chosen, crossed=not own_layouts)
             cells[split] = {key: cell[GAP_METRIC].astype(float) for key, cell in found.items()}
-            row[split] = stratified_bootstrap(cells[split])
+            row[split] = stratified_bootstrap(cells[split], own_layouts=own_layouts)
             row[f"{split}_layouts"] = len({layout for _, layout in found})
             row[f"{split}_seeds"] = len({policy for policy, _ in found})
         for split in ("test", "ood"):
             if split in cells and "train" in cells:
-                row[f"{split}_gap"] = stratified_difference(cells["train"], cells[split])
+                row[f"{split}_gap"] = stratified_difference(cells["train"], cells[split], sample["own"])
         rows.append(row)
     return rows
 
@@ -103,14 +117,26 @@ def train_column_text(rows: list[dict]) -> str:
     said = []
     for row in rows:
         sample = row["sample"]
-        if not sample["layouts"]:
+        layouts = next(iter(sample["layouts"].values()), [])
+        if not layouts:
             said.append(f"{row['baseline']}: none (no training config.json of its policies)")
         elif sample["suite"] is None:
-            said.append(f"{row['baseline']}: its training cells, {' + '.join(sample['layouts'])}")
+            said.append(f"{row['baseline']}: its training cells, {' + '.join(layouts)}")
+        elif sample["own"]:
+            low, high = sample["first"]
+            said.append(
+                f"{row['baseline']}: for each of its {sample['policies']} training seeds, the first "
+                f"{len(layouts)} layouts of {sample['suite']} (of the suite's first {low}-{high}) on which "
+                "its own run began an episode for certain, reconstructed from the run's config.json (the "
+                "layout each env drew at each reset: `baselines/ppo_gail/training/suite_draws.py`); the "
+                "generator draws a suite's layouts independently by index, so they are a random sample of "
+                "its training layouts, and the seeds' runs seeded their envs apart, so each seed has layouts "
+                "of its own (nested in the seeds: the bootstrap draws each seed's apart)"
+            )
         else:
             said.append(
-                f"{row['baseline']}: the first {len(sample['layouts'])} layouts of {sample['suite']} (of the "
-                f"suite's first {sample['first']}) on which the runs of all its {sample['policies']} "
+                f"{row['baseline']}: the first {len(layouts)} layouts of {sample['suite']} (of the "
+                f"suite's first {sample['first'][1]}) on which the runs of all its {sample['policies']} "
                 "training seeds began an episode for certain, reconstructed from each run's config.json "
                 "(the layout each env drew at each reset: `baselines/ppo_gail/training/suite_draws.py`); "
                 "the generator draws a suite's layouts independently by index, so they are a random sample "

@@ -82,15 +82,18 @@ def episode_value(episodes: pd.DataFrame, metric: str) -> pd.Series:
     return episodes[metric].astype(float)
 
 
-def suite_cells(episodes: pd.DataFrame) -> tuple[dict[tuple[str, str], pd.DataFrame], list[str]]:
+def suite_cells(
+    episodes: pd.DataFrame, crossed: bool = True
+) -> tuple[dict[tuple[str, str], pd.DataFrame], list[str]]:
     """(policy, layout) → that cell's distinct episodes, on the layouts every policy ran, and the
-    layouts left out because some policy did not run them."""
+    layouts left out because some policy did not run them; with ``crossed`` False (each policy on layouts
+    of its own) every cell, none left out."""
     episodes = episodes.assign(policy=[policy_of(config) for config in episodes["baseline_config"]])
     distinct = distinct_episodes(episodes, within=("policy", "layout"))
     cells = {key: group for key, group in distinct.groupby(["policy", "layout"], sort=True)}
     names = sorted({policy for policy, _ in cells})
     layouts = sorted({layout for _, layout in cells})
-    kept = [layout for layout in layouts if all((policy, layout) in cells for policy in names)]
+    kept = [layout for layout in layouts if not crossed or all((policy, layout) in cells for policy in names)]
     cells = {key: cell for key, cell in cells.items() if key[1] in kept}
     return cells, sorted(set(layouts) - set(kept))
 
