@@ -121,9 +121,10 @@ def test_every_trainer_validates_by_default_on_cabin_v1_val_only(baseline):
 
 
 def test_a_config_json_written_before_the_protocol_reads_as_validated_on_its_training_layouts():
-    """A committed ``config.json`` without ``validation_suite`` is a run validated on its training cells at
-    every checkpoint; it reads back so and writes the same bytes; a new run records cabin-v1-val."""
-    path = REPOSITORY / "results" / "training" / "ppo_gail" / "config.json"
+    """A ``config.json`` without ``validation_suite`` (here the one ppo_gail seed 0 wrote before the protocol,
+    kept in tests/data) is a run validated on its training cells at every checkpoint; it reads back so and
+    writes the same bytes; a new run records cabin-v1-val."""
+    path = Path(__file__).parent / "data" / "config_before_validation_protocol.json"
     text = path.read_text()
     config = TrainConfig.from_dict(json.loads(text))
     assert config.validation_suite is None and config.validation_interval == config.save_interval

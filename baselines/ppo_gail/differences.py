@@ -100,6 +100,10 @@ class CodeRow:
 
 UNTESTED = "chosen for a CPU's throughput; no trial against the study's value is recorded"
 PLANNER_EXPERT = "no human demonstrations are public; the planner is the expert the benchmark has"
+CHECKPOINT_PROTOCOL = (
+    "the benchmark's protocol: a learner's checkpoint is chosen on cabin-v1-val "
+    "(docs/experiments.md, Choosing on `cabin-v1-val`)"
+)
 
 CURIOSITY_FORMS = {
     "mlagents": "ML-Agents': clip(strength x forward error, 0, 1); loss 10 (0.2 L_F + 0.8 L_I); encoder "
@@ -338,8 +342,8 @@ ROWS: list[Row | CodeRow] = [
         "checkpoint exported",
         "export",
         {"last": "the last", "best": "the best on cabin-v1-val"}.get,
-        why_study="the benchmark's protocol: a learner's checkpoint is chosen on cabin-v1-val "
-        "(docs/experiments.md, Choosing on `cabin-v1-val`); the tracking stage's episodes end at an exit "
+        why_ppo_gail=CHECKPOINT_PROTOCOL,
+        why_study=f"{CHECKPOINT_PROTOCOL}; the tracking stage's episodes end at an exit "
         "cabin-v1-val's cells lack",
     ),
     CodeRow(
