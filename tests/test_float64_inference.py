@@ -1,12 +1,10 @@
 """A policy file's ``inference`` entry (issue 44, ``networks.Inference``): the files written now act in
 float64 and round the mean action to float32, which their ONNX twins compute to the bit
-(tests/test_onnx_training.py plays a trained one of each kind against its twin); the files without it,
-every shipped one, act in float32 as they did (tests/test_issue45_float32_actions.py replays committed
-records)."""
+(tests/test_onnx_training.py plays a trained one of each kind against its twin); the files written before
+it act in float32 as they did (tests/test_issue45_float32_actions.py replays committed records)."""
 
 from __future__ import annotations
 
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -53,6 +51,14 @@ def mlp_policy(path, activation: str = "elu") -> dict:
     return read_policy_file(path)
 
 
+def file_without_inference(path: Path) -> Path:
+    """The shipped ``ppo`` with its ``inference`` entry removed: a file as written before the entry."""
+    policy = torch.load(CHECKPOINT_DIR / "ppo.pt", weights_only=True)
+    del policy["inference"]
+    torch.save(policy, path)
+    return path
+
+
 @pytest.mark.parametrize("rnn_type", ["lstm", "gru"])
 def test_the_written_out_rnn_computes_what_torchs_does(rnn_type):
     """Two layers, five steps, a batch of three, from a random state."""
@@ -87,10 +93,11 @@ def test_a_written_file_acts_in_float64_and_rounds_its_mean_action_to_float32(tm
 
 
 def test_a_file_without_inference_acts_in_float32_as_before(tmp_path):
-    """A shipped file not yet retrained has no ``inference``: it acts as the float32 actor, to the bit (one
+    """A file written before the entry has no ``inference``: it acts as the float32 actor, to the bit (one
     observation a call, as ``act`` computes it: a batch's matrix product may round otherwise)."""
-    assert "inference" not in torch.load(CHECKPOINT_DIR / "ppo_icm.pt", weights_only=True)
-    baseline = load_baseline("ppo_icm", stochastic=False)
+    baseline = load_baseline(
+        "ppo", checkpoint=str(file_without_inference(tmp_path / "ppo.pt")), stochastic=False
+    )
     assert baseline.inference.dtype == torch.float32
     width = baseline.policy["actor"]["observation_size"]
     for observation in observations(8, width):
@@ -140,12 +147,11 @@ def test_a_float64_policys_twin_computes_its_mean_action_where_onnxruntime_runs_
 
 
 def test_export_onnx_float64_makes_a_shipped_float32_policy_act_alike_to_its_twin(tmp_path):
-    """``scripts/export_onnx.py --float64`` on a policy trained before the entry (a copy of the shipped
-    ``ppo``): the same weights, now acting in float64, and ``run`` scores it and its new twin alike."""
+    """``scripts/export_onnx.py --float64`` on a policy written before the entry (the shipped ``ppo``
+    without it): the same weights, now acting in float64, and ``run`` scores it and its new twin alike."""
     from cabinbench.episodes import run_episode
 
-    policy = tmp_path / "ppo.pt"
-    shutil.copy(CHECKPOINT_DIR / "ppo.pt", policy)
+    policy = file_without_inference(tmp_path / "ppo.pt")
     script = Path(__file__).resolve().parents[1] / "scripts" / "export_onnx.py"
     subprocess.run([sys.executable, str(script), "--float64", str(policy)], check=True, capture_output=True)
     written, shipped = (torch.load(path, weights_only=True) for path in (policy, CHECKPOINT_DIR / "ppo.pt"))
