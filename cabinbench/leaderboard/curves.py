@@ -260,10 +260,10 @@ def learning_curves_text(curves: pd.DataFrame) -> str:
     if on_own_layouts:
         lines += [
             "",
-            f"{', '.join(on_own_layouts)} validated on layouts they trained on (or a sample of their "
-            "training suite): their curves show how well the policy does where it learned, not on layouts "
-            f"it never saw, and do not compare with curves on `{HELD_OUT}`. The validation protocol of "
-            f"`{HELD_OUT}` applies to runs trained from now on.",
+            "Validated on their own training layouts (or a sample of their training suite): "
+            f"{', '.join(on_own_layouts)}. Such curves show how well a policy does where it learned, not on "
+            f"layouts it never saw, and do not compare with curves on `{HELD_OUT}`. The validation protocol "
+            f"of `{HELD_OUT}` applies to runs trained from now on.",
         ]
     return "\n".join([*lines, *(["", *notes] if notes else [])]) + "\n"
 
