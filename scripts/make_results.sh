@@ -5,8 +5,8 @@
 # With `learned`, only the learned baselines are played again (after retraining them): the records of the classic
 # baselines are kept, since nothing they depend on changed; with baselines named after it, only theirs (a
 # baseline's policies and records stay together: retrain, install and record one baseline at a time).
-# Time on 2 cores: the classic baselines about half an hour; a learned baseline with 5 seeds about half an hour
-# (265 episodes a policy), the team (three team sizes) about an hour.
+# Time on 2 cores with nothing else running: the classic baselines about half an hour; a learned baseline with 5
+# seeds 35-45 minutes (265 episodes a policy), the team with 5 seeds (three team sizes) about an hour and a half.
 # An interrupted regeneration continues with the same command and RESUME=1: the runs that had finished keep their
 # records and are not played again; an unfinished run is played again from its start.
 set -euo pipefail
