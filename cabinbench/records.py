@@ -187,8 +187,12 @@ def run_path(out_dir: str | os.PathLike, header: dict) -> Path:
         f"k{header['n_agents']}",
         f"seed{header['seed']}-{now:%Y%m%dT%H%M%SZ}",
     ]
-    stem = "__".join(map(safe_name, parts))
-    out = Path(out_dir)
+    return _claim(Path(out_dir), "__".join(map(safe_name, parts)))
+
+
+def _claim(out: Path, stem: str) -> Path:
+    """``out/<stem>[-<n>].jsonl`` with the first free ``n``, created empty at once (exclusive create), so that
+    no other process can take the same name; a name whose trajectory file exists is not free."""
     out.mkdir(parents=True, exist_ok=True)
     suffix = 0
     while True:
@@ -201,6 +205,20 @@ def run_path(out_dir: str | os.PathLike, header: dict) -> Path:
                 return path
         except FileExistsError:
             continue
+
+
+def move_runs(folder: str | os.PathLike, out_dir: str | os.PathLike) -> list[Path]:
+    """Move every records file in ``folder``, with its trajectory file, into ``out_dir`` under a name claimed
+    there as :func:`run_path` claims one: runs played in folders of their own and started in the same second
+    have the same name, and neither overwrites the other. Returns the new records paths."""
+    moved = []
+    for source in sorted(Path(folder).glob("*.jsonl")):
+        target = _claim(Path(out_dir), source.stem)
+        if trajectory_path(source).exists():
+            os.replace(trajectory_path(source), trajectory_path(target))
+        os.replace(source, target)  # last: a records file never stands without its trajectory
+        moved.append(target)
+    return moved
 
 
 def trajectory_path(records_path: str | os.PathLike) -> Path:

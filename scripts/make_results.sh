@@ -51,8 +51,10 @@ play() {  # one run: the folder its records go to, then cabinbench.run's argumen
   folder=$staging/$(md5sum <<< "$key" | cut -c1-16)
   shift
   grep -qxF "$key" "$done_runs" && return 0
+  # the records move under names claimed in $out: two runs started in the same second share a name
   rm -rf "$folder" && python -m cabinbench.run --out "$folder" "$@" > /dev/null &&
-    mkdir -p "$out" && mv "$folder"/* "$out"/ && rmdir "$folder" && echo "$key" >> "$done_runs"
+    python -c 'import sys; from cabinbench.records import move_runs; move_runs(*sys.argv[1:])' "$folder" "$out" &&
+    rmdir "$folder" && echo "$key" >> "$done_runs"
 }
 export -f play
 export staging done_runs

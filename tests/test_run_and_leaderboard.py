@@ -23,6 +23,7 @@ from cabinbench.metrics import METRICS, TEAM_METRICS
 from cabinbench.records import (
     RECORD_FIELDS,
     RecordWarning,
+    move_runs,
     read_records,
     read_trajectories,
     run_path,
@@ -133,6 +134,30 @@ def test_runs_started_together_each_get_their_own_file(tmp_path):
     paths = [run_path(tmp_path, header) for _ in range(3)]
     assert len(set(paths)) == 3 and all(path.is_file() for path in paths)
     assert read_records(tmp_path).empty  # a claimed file with no episode yet holds no record
+
+
+def test_runs_played_apart_and_moved_together_keep_every_record(short_run, tmp_path):
+    """make_results plays each run into a folder of its own and moves its records on: two runs started in the
+    same second have the same file name there, and moving both into one folder keeps both, each records file
+    with its own trajectory."""
+    records = Path(short_run["records"])
+    staged = []
+    for index in range(2):
+        folder = tmp_path / f"staged{index}"
+        folder.mkdir()
+        shutil.copy(records, folder / records.name)
+        shutil.copy(Path(short_run["trajectories"]), folder / records.with_suffix(".npz").name)
+        staged.append(folder)
+    out = tmp_path / "runs"
+    moved = [path for folder in staged for path in move_runs(folder, out)]
+    assert len(set(moved)) == 2 and sorted(out.iterdir()) == sorted(
+        [*moved, *(p.with_suffix(".npz") for p in moved)]
+    )
+    assert all(not any(folder.iterdir()) for folder in staged)
+    both = read_records(out)
+    assert len(both) == 2 * len(read_records(records)) and set(both["source"]) == set(map(str, moved))
+    trajectory = Path(short_run["trajectories"]).read_bytes()
+    assert all(path.with_suffix(".npz").read_bytes() == trajectory for path in moved)
 
 
 def test_truncated_last_line_is_skipped(short_run, tmp_path):
