@@ -1,6 +1,6 @@
 """Does ``run`` score every shipped torch policy and its ONNX twin alike? Episode by episode, on one layout.
 
-    python scripts/onnx_twin_scores.py [--layout a320_cell] [--seeds 0 1] [--float64]
+    python scripts/onnx_twin_scores.py [--layout a320_cell] [--seeds 0 1] [--float32]
 
 For every shipped ``checkpoints/<name>.pt`` with its ``<name>.onnx`` (``scripts/export_onnx.py``), the torch
 baseline (``<name>``, or the file's ablation with ``checkpoint=`` for the study's two networks) and the
@@ -8,11 +8,11 @@ baseline (``<name>``, or the file's ablation with ``checkpoint=`` for the study'
 how many metrics differ, and the first step at which the robots' positions
 part (at all, and by more than 1 cm).
 
-``--float64`` plays copies of the shipped files that act in float64 (``inference`` "float64", as every
-policy file written now does: both sides compute the network in float64 and round the mean action to
-float32) and their twins, written to a temporary folder: the experiment behind the report on bit-equal
-scores, and how the shipped policies will act once retrained. Needs ``pip install "cabinbench[train,onnx]"``;
-about 1 s an episode on one core.
+The shipped files act in float64 (their ``inference`` entry) and round the mean action to float32, as their
+twins do, so the two play the same episodes. ``--float32`` plays copies written as files were before that
+entry, acting in float32, and their twins, written to a temporary folder: torch and onnxruntime sum a layer's
+products in different orders, and how soon the episodes part is the paper's float-precision limitation.
+Needs ``pip install "cabinbench[train,onnx]"``; about 1 s an episode on one core.
 """
 
 from __future__ import annotations
@@ -22,8 +22,9 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+import torch
 from cabinbench.baselines.onnx.export import export_onnx
-from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR, write_in_float64
+from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR
 
 from cabinbench.agents import load_baseline, registered_baselines
 from cabinbench.episodes import run_episode
@@ -32,9 +33,13 @@ from cabinbench.metrics import METRICS, TEAM_METRICS
 APART = 0.01  # metres: robots this far apart are on different courses
 
 
-def float64_copy(checkpoint: Path, folder: Path) -> Path:
-    """A copy of ``checkpoint`` in ``folder`` that acts in float64, with its ONNX twin beside it."""
-    copy = write_in_float64(checkpoint, folder / checkpoint.name)
+def float32_copy(checkpoint: Path, folder: Path) -> Path:
+    """A copy of ``checkpoint`` in ``folder`` without its ``inference`` entry (so acting in float32), with its
+    ONNX twin beside it."""
+    policy = torch.load(checkpoint, weights_only=True)
+    policy.pop("inference", None)
+    copy = folder / checkpoint.name
+    torch.save(policy, copy)
     export_onnx(copy, copy.with_suffix(".onnx"))
     return copy
 
@@ -59,7 +64,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--layout", default="a320_cell")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
-    parser.add_argument("--float64", action="store_true", help="copies that act in float64, and their twins")
+    parser.add_argument("--float32", action="store_true", help="copies that act in float32, and their twins")
     args = parser.parse_args()
     folder = Path(tempfile.mkdtemp())
     print("policy                   seed  coverage torch / onnx  metrics differing  parted at step")
@@ -70,7 +75,7 @@ def main() -> None:
             continue
         ablation = load_baseline("onnx", file=str(checkpoint.with_suffix(".onnx"))).model.metadata["ablation"]
         spec = name if name in registered_baselines() else ablation
-        played = float64_copy(checkpoint, folder) if args.float64 else checkpoint
+        played = float32_copy(checkpoint, folder) if args.float32 else checkpoint
         config, twin = {"checkpoint": str(played)}, played.with_suffix(".onnx")
         n_agents = 2 if ablation == "ppo_gail_team" else 1
         for seed in args.seeds:

@@ -11,9 +11,10 @@ from pathlib import Path
 import numpy as np
 import onnx
 import pytest
+import torch
 from cabinbench.baselines.onnx import OnnxPolicy
 from cabinbench.baselines.onnx.policy import FORMAT
-from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR, PPOGail, PPOGailTeam
+from cabinbench.baselines.ppo_gail.policy import CHECKPOINT_DIR
 
 from cabinbench.agents import EpisodeContext, load_baseline
 from cabinbench.envs.coverage_env import CoverageEnv
@@ -22,16 +23,16 @@ from cabinbench.errors import BaselineError
 
 CHECKPOINTS = sorted(CHECKPOINT_DIR.glob("*.pt"))
 PARITY_STEPS = 200
-ACTION_GAP = 1e-5  # float32 networks in two runtimes: the sums are ordered differently
-DECIMALS = 3  # actions rounded to this many decimals agree between the runtimes on every step played below
 
 
 @pytest.mark.parametrize("checkpoint", CHECKPOINTS, ids=lambda path: path.stem)
 def test_every_shipped_policy_has_an_onnx_twin_that_acts_alike(checkpoint):
-    """On the observations of the torch policy's own episode, the twin's actions (sampled with the same
-    seeded noise) are the torch policy's to ``ACTION_GAP``."""
+    """Every shipped policy acts in float64 (its ``inference`` entry), as its twin does: on the observations
+    of the torch policy's own episode, the twin's actions (sampled with the same seeded noise) are the
+    torch policy's to the bit."""
+    assert torch.load(checkpoint, weights_only=True)["inference"] == "float64"
     gaps = twin_action_gaps(checkpoint, checkpoint.with_suffix(".onnx"))
-    assert len(gaps) > 100 and max(gaps) < ACTION_GAP
+    assert len(gaps) > 100 and max(gaps) == 0
 
 
 def twin_action_gaps(checkpoint: Path, twin_file: Path) -> list[float]:
@@ -59,40 +60,14 @@ def twin_action_gaps(checkpoint: Path, twin_file: Path) -> list[float]:
     return gaps
 
 
-class Rounded:
-    """A policy whose actions are rounded to ``DECIMALS``: where the torch and ONNX actions round the same,
-    the two runtimes play the same episode."""
-
-    def act(self, observation, info):
-        return np.round(super().act(observation, info), DECIMALS)
-
-
-class RoundedPPOGail(Rounded, PPOGail):
-    pass
-
-
-class RoundedPPOGailTeam(Rounded, PPOGailTeam):
-    pass
-
-
-class RoundedOnnx(Rounded, OnnxPolicy):
-    pass
-
-
-@pytest.mark.parametrize(
-    ("rounded_torch", "twin", "n_agents"),
-    [("RoundedPPOGail", "ppo_gail", 1), ("RoundedPPOGailTeam", "ppo_gail_team", 2)],
-)
-def test_where_the_actions_round_the_same_the_episode_scores_the_same(rounded_torch, twin, n_agents):
-    """Unrounded, the 1e-7 gaps grow through contacts into other episodes (measured on a320_cell, seed 0:
-    positions part by more than 1 cm after 60 to 430 steps), so the scores differ as two seeds' do."""
-    module = "tests.test_onnx_baseline"
-    onnx_config = {"file": str(CHECKPOINT_DIR / f"{twin}.onnx")}
-    torch_record, _ = run_episode(f"{module}:{rounded_torch}", "a320_cell", 0, n_agents=n_agents)
-    onnx_record, _ = run_episode(
-        f"{module}:RoundedOnnx", "a320_cell", 0, n_agents=n_agents, config=onnx_config
-    )
+@pytest.mark.parametrize(("baseline", "n_agents"), [("ppo_gail", 1), ("ppo_gail_team", 2)])
+def test_run_scores_a_shipped_policy_and_its_twin_alike(baseline, n_agents):
+    """A whole episode on a320_cell, through every contact: the same record and the same trajectory."""
+    onnx_config = {"file": str(CHECKPOINT_DIR / f"{baseline}.onnx")}
+    torch_record, torch_path = run_episode(baseline, "a320_cell", 0, n_agents=n_agents)
+    onnx_record, onnx_path = run_episode("onnx", "a320_cell", 0, n_agents=n_agents, config=onnx_config)
     assert {**onnx_record, "wall_time": 0} == {**torch_record, "wall_time": 0}
+    assert all(np.array_equal(onnx_path[key], torch_path[key]) for key in torch_path)
 
 
 def test_run_makes_the_env_from_the_metadata_without_torch(tmp_path):

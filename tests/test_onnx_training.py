@@ -17,9 +17,7 @@ from tests.test_onnx_baseline import PARITY_STEPS, twin_action_gaps
 
 PPO_TINY = ["--layout", "a320_cell", "--iterations", "1", "--num-envs", "4", "--steps-per-env", "8"]
 PPO_TINY += ["--max-steps", "20", "--validation-episodes", "0", "--no-progress"]
-EPISODE_STEPS = (
-    500  # as shipped (float32), the twins' episodes part within a few steps (scripts/onnx_twin_scores.py)
-)
+EPISODE_STEPS = 500  # long enough for float32 twins to part (scripts/onnx_twin_scores.py --float32)
 
 
 def test_train_writes_the_twin_and_ship_and_keep_copy_it(tmp_path, monkeypatch, capsys):
