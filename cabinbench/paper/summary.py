@@ -63,8 +63,8 @@ def findings(rows: list[dict]) -> list[str]:
         cleaned = max(row["success"].mean for row in learned if row["success"] is not None)
         verb = "lies below" if separated(top[test], best[test]) else "overlaps"
         sentences.append(
-            f"The best learned policy, {_name(top)}, scores {score_text(top[test], _unit(top, test))}, whose "
-            f"interval {verb} that of {_name(best)}; "
+            f"The best learned single robot, {_name(top)}, scores {score_text(top[test], _unit(top, test))}, "
+            f"whose interval {verb} that of {_name(best)}; "
             + (
                 "no learned policy cleans the floor in any test episode, so their scores rank coverage alone."
                 if cleaned == 0
