@@ -262,6 +262,18 @@ ROWS: list[Row | CodeRow] = [
         "discounted by its gamma (all 0.99 in Table 5.3); rsl-rl's storage holds one reward stream",
     ),
     CodeRow(
+        "value after an episode ends at a bound or the exit",
+        "not stated",
+        "zero, for every reward",
+        "zero, for every reward",
+        why_ppo_gail="the episode is over; its GAIL reward is centred, so ending pays neither way",
+        why_study="not stated; ML-Agents' TensorFlow trainers zero only the extrinsic value there and "
+        "bootstrap the GAIL and curiosity values as if the episode went on (their use_terminal_states = "
+        "False), so the always-positive GAIL reward does not pay the agent to avoid the end. Not reproduced "
+        "yet: it needs the value head per reward signal above; trained without it, the tracking network of "
+        "seed 0 never reached the exit (docs/experiments.md, Ending episodes under ML-Agents' GAIL reward)",
+    ),
+    CodeRow(
         "initial weights of every network",
         "not stated",
         "torch's default (Kaiming uniform)",
