@@ -57,6 +57,7 @@ def test_the_study_config_is_tables_5_2_and_5_3_with_the_papers_rewards_and_lida
         assert (algorithm["curiosity_form"], algorithm["gail_form"]) == ("mlagents", "mlagents")
         assert not algorithm["gail_use_actions"] and algorithm["gail_gradient_penalty"] == 10
         assert algorithm["gail_learning_rate"] == algorithm["curiosity_learning_rate"] == 3e-4
+        assert algorithm["value_per_signal"]  # ML-Agents' critic: a value head per reward signal
         assert config.demo_random_start and config.demo_action_noise > 0  # varied demonstrations
 
 
@@ -189,6 +190,7 @@ ISSUE_43_SETTINGS = (
     "gail_use_actions",
     "gail_gradient_penalty",
     "gail_learning_rate",
+    "value_per_signal",
 )
 """The algorithm settings the study's configuration took from ML-Agents after the shipped pair was trained."""
 

@@ -35,6 +35,7 @@ from cabinbench.baselines.ppo_gail.reward_models import (
     GailDiscriminator,
     IntrinsicCuriosityModule,
 )
+from cabinbench.baselines.ppo_gail.signal_values import SignalValues, signal_names
 from rsl_rl.algorithms import PPO
 from rsl_rl.models import MLPModel
 from rsl_rl.storage import RolloutStorage
@@ -74,7 +75,7 @@ STUDY_PPO = {
 """PPO hyperparameters of the study (Table 5.2/5.3). ``make_train_cfg`` uses rsl-rl's "fixed" learning-rate
 schedule, which keeps the study's initial 3e-4 (rsl-rl's default "adaptive" schedule would move it to track a
 target KL); the study's ML-Agents decayed it linearly, which ``TrainConfig.learning_rate_schedule`` does.
-All reward signals share the one discount ``gamma``: rsl-rl's storage holds a single reward stream."""
+All reward signals share the one discount ``gamma``, as Table 5.3 gives each 0.99."""
 
 
 # ----------------------------------------------------------------------------------------------------
@@ -138,6 +139,8 @@ class PPOCuriosityGail(PPO):
             each in a thread of its own; 0: all in turn. The results do not change: every random draw of
             their updates is made before PPO's, in the order of the sequential update, and each module
             only reads the rollout and writes its own weights.
+        value_per_signal: A value head per reward signal, the extrinsic value alone zeroed where an episode
+            ends, as ML-Agents' PPO has it (``signal_values.py``); False: one value of the summed reward.
         ppo_kwargs: Passed to ``PPO`` (gamma, lam, learning_rate, ..., device, multi_gpu_cfg).
     """
 
@@ -166,6 +169,7 @@ class PPOCuriosityGail(PPO):
         shaping_columns: Sequence[int] | None = None,
         shaping_epochs: int | None = None,
         shaping_update_threads: int = 0,
+        value_per_signal: bool = False,
         **ppo_kwargs,
     ) -> None:
         """Build PPO and the enabled reward modules (the arguments: see the class docstring)."""
@@ -214,6 +218,13 @@ class PPOCuriosityGail(PPO):
                 self.discriminator.parameters(), lr=gail_learning_rate
             )
             self.gail_rewards = torch.zeros(self._rollout_shape, device=self.device)
+        self.signal_values: SignalValues | None = None
+        if value_per_signal:
+            signals = signal_names(use_curiosity, use_gail)
+            if getattr(critic, "num_values", None) != len(signals):
+                raise ValueError(f"value_per_signal needs a SignalValueCritic of {len(signals)} values")
+            normalise = not self.normalize_advantage_per_mini_batch
+            self.signal_values = SignalValues(self.storage, signals, self.gamma, self.lam, normalise)
         shaping_modules = (self.curiosity is not None) + (self.discriminator is not None)
         self.threaded_updates = min(shaping_update_threads, shaping_modules)
         self.shaping_threads = _update_threads(self.threaded_updates)
@@ -282,7 +293,7 @@ class PPOCuriosityGail(PPO):
         states = previous[1] if reused else self._shaping_observation(self.transition.observations)
         actions = self.transition.actions.clamp(-ACTION_LIMIT, ACTION_LIMIT)
         # not modified in place: the runner logs the environment reward after this call
-        shaped_rewards = rewards
+        signal_rewards = {"extrinsic": rewards}
 
         if self.curiosity is not None:
             next_states = self._shaping_observation(obs)
@@ -295,27 +306,34 @@ class PPOCuriosityGail(PPO):
             )
             self.next_states[step].copy_(next_states)
             self.curiosity_rewards[step].copy_(curiosity_rewards)
-            shaped_rewards = shaped_rewards + curiosity_rewards
+            signal_rewards["curiosity"] = curiosity_rewards
 
         if self.discriminator is not None:
             gail_rewards = self.gail_strength * self.discriminator.reward(states, actions)
             self.gail_rewards[step].copy_(gail_rewards)
-            shaped_rewards = shaped_rewards + gail_rewards
+            signal_rewards["gail"] = gail_rewards
 
-        super().process_env_step(obs, shaped_rewards, dones, extras)
+        if self.signal_values is not None:  # the returns read its rewards, bootstrapped; PPO stores the rest
+            self.signal_values.record(step, signal_rewards, self.transition.values, dones, extras)
+            signal_rewards = {"extrinsic": rewards}
+            extras = {key: value for key, value in extras.items() if key != "time_outs"}
+        super().process_env_step(obs, sum(signal_rewards.values()), dones, extras)
 
     def compute_returns(self, obs: TensorDict) -> None:
-        if self.discriminator is not None and self.discriminator.centred_reward:
-            self.storage.rewards -= self.gail_rewards.mean()  # centred: see the class docstring
-        super().compute_returns(obs)
+        if self.discriminator is not None and self.discriminator.centred_reward:  # see the class docstring
+            rewards = self.storage.rewards if self.signal_values is None else self.signal_values.of("gail")
+            rewards -= self.gail_rewards.mean()
+        if self.signal_values is None:
+            return super().compute_returns(obs)
+        self.signal_values.compute_returns(self.critic(obs).detach())
 
     # --- Learning -------------------------------------------------------------------------------------------
 
     def update(self) -> dict[str, float]:
         """Train the ICM and the discriminator on the collected rollout, and run the PPO update.
 
-        Returns PPO's losses plus ``curiosity_forward``, ``curiosity_inverse``, ``curiosity_reward`` (mean per
-        step) and ``gail_discriminator``, ``gail_gradient_penalty``, ``gail_accuracy``, ``gail_reward`` (mean
+        Returns PPO's losses plus ``curiosity_forward``, ``curiosity_inverse``, ``curiosity_reward`` and
+        ``gail_discriminator``, ``gail_gradient_penalty``, ``gail_accuracy``, ``gail_reward`` (rewards: mean
         per step) for the enabled modules; the runner logs them all under ``Loss/``.
         """
         self._encoded_next_states = None  # the ICM's weights change

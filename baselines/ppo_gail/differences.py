@@ -252,26 +252,23 @@ ROWS: list[Row | CodeRow] = [
         "(docs/experiments.md)",
     ),
     Row("GAIL learning rate", "gail_learning_rate"),
-    CodeRow(
+    Row(
         "value estimates",
-        "not stated",
-        "one critic of the summed reward",
-        "one critic of the summed reward",
-        why_ppo_gail="rsl-rl's storage holds one reward stream",
-        why_study="not stated; ML-Agents' PPO gives each reward signal a value head of its own, each "
-        "discounted by its gamma (all 0.99 in Table 5.3); rsl-rl's storage holds one reward stream",
+        "value_per_signal",
+        lambda per_signal: (
+            "a value head per reward signal" if per_signal else "one value of the summed reward"
+        ),
+        why_ppo_gail="rsl-rl's PPO has one critic; the centred GAIL reward needs no value of its own (below)",
     ),
-    CodeRow(
+    Row(
         "value after an episode ends at a bound or the exit",
-        "not stated",
-        "zero, for every reward",
-        "zero, for every reward",
+        "value_per_signal",
+        lambda per_signal: (
+            "zero for the environment reward only; GAIL's and curiosity's go on"
+            if per_signal
+            else "zero, for every reward"
+        ),
         why_ppo_gail="the episode is over; its GAIL reward is centred, so ending pays neither way",
-        why_study="not stated; ML-Agents' TensorFlow trainers zero only the extrinsic value there and "
-        "bootstrap the GAIL and curiosity values as if the episode went on (their use_terminal_states = "
-        "False), so the always-positive GAIL reward does not pay the agent to avoid the end. Not reproduced "
-        "yet: it needs the value head per reward signal above; trained without it, the tracking network of "
-        "seed 0 never reached the exit (docs/experiments.md, Ending episodes under ML-Agents' GAIL reward)",
     ),
     CodeRow(
         "initial weights of every network",
@@ -282,14 +279,14 @@ ROWS: list[Row | CodeRow] = [
         why_study="not stated; ML-Agents' TensorFlow trainers drew Glorot uniform weights, not reproduced",
     ),
     CodeRow(
-        "curiosity at an episode's last step",
+        "an episode's last observation",
         "not stated",
-        "none: the next observation is the reset's",
-        "none: the next observation is the reset's",
+        "not seen: no curiosity reward at the last step; V(s_t) bootstraps the values that go on",
+        "not seen: no curiosity reward at the last step; V(s_t) bootstraps the values that go on",
         why_ppo_gail="the runner hands over the next episode's first observation, whose prediction error "
-        "says nothing about the dynamics",
-        why_study="not stated; ML-Agents rewards the episode's last observation, which rsl-rl's runner "
-        "does not hand over",
+        "says nothing about the dynamics; rsl-rl bootstraps a time-out likewise",
+        why_study="not stated; ML-Agents rewards curiosity at, and bootstraps the values from, the episode's "
+        "last observation, which rsl-rl's runner does not hand over",
     ),
     Row(
         "training steps",

@@ -7,6 +7,7 @@ import inspect
 import os
 from collections.abc import Sequence
 
+from cabinbench.baselines.ppo_gail import signal_values
 from cabinbench.baselines.ppo_gail.algorithm import ABLATIONS, REWARD_SIGNALS, STUDY_PPO, PPOCuriosityGail
 from rsl_rl.algorithms import PPO
 
@@ -124,6 +125,10 @@ def make_train_cfg(
         "activation": activation,
         "obs_normalization": obs_normalization,
     }
+    critic = model
+    if algorithm.get("value_per_signal"):  # a value per reward signal, see signal_values.py
+        signals = signal_values.signal_names(**ABLATIONS[variant])
+        critic = {**model, "class_name": signal_values.CLASS_NAME, "num_values": len(signals)}
     return {
         "num_steps_per_env": num_steps_per_env,
         "save_interval": save_interval,
@@ -133,5 +138,5 @@ def make_train_cfg(
             **model,
             "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": init_noise_std},
         },
-        "critic": model,
+        "critic": critic,
     }

@@ -65,6 +65,9 @@ STUDY: dict[str, Stated] = {
     "lam": Stated(0.95, "Table 5.2: lambda"),
     "num_learning_epochs": Stated(3, "Table 5.2: num_epoch"),
     "gamma": Stated(0.99, "Table 5.3: gamma of every reward signal"),
+    "value_per_signal": Stated(
+        True, "ML-Agents' PPO: a value head per reward signal; the extrinsic one alone ends with the episode"
+    ),
     "curiosity_form": Stated("mlagents", "§5.2.1: ML-Agents' curiosity reward signal"),
     "curiosity_strength": Stated(0.02, "Table 5.3"),
     "curiosity_encoding_size": Stated(256, "Table 5.3"),
@@ -91,6 +94,7 @@ ALGORITHM_KEYS = (
     "lam",
     "num_learning_epochs",
     "gamma",
+    "value_per_signal",
     "curiosity_form",
     "curiosity_strength",
     "curiosity_encoding_size",
