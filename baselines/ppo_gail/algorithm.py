@@ -219,12 +219,8 @@ class PPOCuriosityGail(PPO):
             )
             self.gail_rewards = torch.zeros(self._rollout_shape, device=self.device)
         self.signal_values: SignalValues | None = None
-        if value_per_signal:
-            signals = signal_names(use_curiosity, use_gail)
-            if getattr(critic, "num_values", None) != len(signals):
-                raise ValueError(f"value_per_signal needs a SignalValueCritic of {len(signals)} values")
-            normalise = not self.normalize_advantage_per_mini_batch
-            self.signal_values = SignalValues(self.storage, signals, self.gamma, self.lam, normalise)
+        if value_per_signal:  # ML-Agents' critic
+            self.signal_values = SignalValues.for_algorithm(self, signal_names(use_curiosity, use_gail))
         shaping_modules = (self.curiosity is not None) + (self.discriminator is not None)
         self.threaded_updates = min(shaping_update_threads, shaping_modules)
         self.shaping_threads = _update_threads(self.threaded_updates)

@@ -7,8 +7,8 @@ import inspect
 import os
 from collections.abc import Sequence
 
-from cabinbench.baselines.ppo_gail import signal_values
 from cabinbench.baselines.ppo_gail.algorithm import ABLATIONS, REWARD_SIGNALS, STUDY_PPO, PPOCuriosityGail
+from cabinbench.baselines.ppo_gail.signal_values import CRITIC_CLASS_NAME, signal_names
 from rsl_rl.algorithms import PPO
 
 ALGORITHM_CLASS_NAME = "cabinbench.baselines.ppo_gail.algorithm:PPOCuriosityGail"
@@ -127,8 +127,8 @@ def make_train_cfg(
     }
     critic = model
     if algorithm.get("value_per_signal"):  # a value per reward signal, see signal_values.py
-        signals = signal_values.signal_names(**ABLATIONS[variant])
-        critic = {**model, "class_name": signal_values.CLASS_NAME, "num_values": len(signals)}
+        signals = signal_names(**ABLATIONS[variant])
+        critic = {**model, "class_name": CRITIC_CLASS_NAME, "num_values": len(signals)}
     return {
         "num_steps_per_env": num_steps_per_env,
         "save_interval": save_interval,

@@ -20,10 +20,11 @@ the episode's last observation).
 from __future__ import annotations
 
 import torch
+from rsl_rl.algorithms import PPO
 from rsl_rl.models import MLPModel
 from rsl_rl.storage import RolloutStorage
 
-CLASS_NAME = "cabinbench.baselines.ppo_gail.signal_values:SignalValueCritic"
+CRITIC_CLASS_NAME = "cabinbench.baselines.ppo_gail.signal_values:SignalValueCritic"
 
 
 def signal_names(use_curiosity: bool, use_gail: bool) -> tuple[str, ...]:
@@ -69,6 +70,15 @@ class SignalValues:
         storage.returns = torch.zeros(shape, device=storage.device)
         self.rewards = torch.zeros(shape, device=storage.device)
         """Each signal's reward per step, with the value its episode's end bootstraps."""
+
+    @classmethod
+    def for_algorithm(cls, algorithm: PPO, signals: tuple[str, ...]) -> SignalValues:
+        """The signal values of ``algorithm``'s storage, with its discount, lambda and advantage
+        normalisation; its critic must give one value per signal (``SignalValueCritic``)."""
+        if getattr(algorithm.critic, "num_values", None) != len(signals):
+            raise ValueError(f"value_per_signal needs a SignalValueCritic of {len(signals)} values")
+        normalise = not algorithm.normalize_advantage_per_mini_batch
+        return cls(algorithm.storage, signals, algorithm.gamma, algorithm.lam, normalise)
 
     def record(
         self,
