@@ -38,11 +38,20 @@ fi
 learns() { [[ " $learned_baselines " == *" $1 "* ]]; }  # whether this regeneration plays learned baseline $1
 # A learned baseline's policies: "shipped" (baselines/ppo_gail/checkpoints/<baseline>.pt, the default) and each
 # training seed's kept in results/training/<baseline>/seed<S>/ (`train --keep`); policy_config gives a policy's
-# cabinbench.run --config (none for the shipped one).
-policies_of() { local policy
-  [ -f "baselines/ppo_gail/checkpoints/$1.pt" ] && echo shipped
-  for policy in results/training/"$1"/seed*/policy.pt; do [ -f "$policy" ] && echo "$policy"; done; return 0; }
-policy_config() { [ "$1" = shipped ] || printf '%s\n' --config "{\"checkpoint\": \"$1\"}"; }
+# cabinbench.run --config (none for the shipped one). ppo_gail_study is a pair of networks, named by its cleaning
+# one: ppo_gail_study_cleaning.pt beside ppo_gail_study_tracking.pt, each further seed's pair kept in
+# results/training/ppo_gail_study_{cleaning,tracking}/seed<S>/ (scripts/train_study_policies.sh).
+policies_of() { local policy name=$1
+  [ "$name" = ppo_gail_study ] && name=ppo_gail_study_cleaning
+  [ -f "baselines/ppo_gail/checkpoints/$name.pt" ] && echo shipped
+  for policy in results/training/"$name"/seed*/policy.pt; do [ -f "$policy" ] && echo "$policy"; done; return 0; }
+policy_config() {
+  case $1 in
+    shipped) ;;
+    */ppo_gail_study_cleaning/*) printf '%s\n' --config "{\"cleaning\": \"$1\", \"tracking\": \"${1/_cleaning/_tracking}\"}" ;;
+    *) printf '%s\n' --config "{\"checkpoint\": \"$1\"}" ;;
+  esac
+}
 # Every run is queued as one `play` line, and the queue runs at the end, one run per core: each run writes files
 # of its own, and the leaderboard orders episodes by seed, not by when they finished.
 play() {  # one run: the folder its records go to, then cabinbench.run's arguments
@@ -98,25 +107,10 @@ if $classic; then
 fi
 
 # Learned policies on the named cabin layouts, zero-shot on all but the training cell: the shipped policy's records
-# in results/runs, every other training seed's in results/ablation_runs (results/ablation.md). ppo_gail_study is a
-# pair of networks, ppo_gail_study_cleaning.pt and ppo_gail_study_tracking.pt (further seeds: the pairs kept in
-# results/training/ppo_gail_study_{cleaning,tracking}/seed<S>/, which the reproduction report reads).
+# in results/runs, every other training seed's in results/ablation_runs (results/ablation.md; the reproduction
+# report reads ppo_gail_study's every seed).
 for baseline in $learned_baselines; do
   [ "$baseline" = ppo_gail_suite ] && continue  # scored on the suites only (below)
-  if [ "$baseline" = ppo_gail_study ]; then
-    [ -f baselines/ppo_gail/checkpoints/ppo_gail_study_cleaning.pt ] && for layout in a320_cell shape_changed b777_3col full_cabin; do
-      run --baseline ppo_gail_study --layout "$layout" --protocol sequential
-    done
-    for cleaning in results/training/ppo_gail_study_cleaning/seed*/policy.pt; do
-      tracking=${cleaning/_cleaning/_tracking}
-      [ -f "$cleaning" ] && [ -f "$tracking" ] || continue
-      for layout in a320_cell shape_changed b777_3col full_cabin; do
-        OUT=results/ablation_runs run --baseline ppo_gail_study --layout "$layout" --protocol sequential \
-          --config "{\"cleaning\": \"$cleaning\", \"tracking\": \"$tracking\"}"
-      done
-    done
-    continue
-  fi
   for policy in $(policies_of "$baseline"); do
     mapfile -t config < <(policy_config "$policy")
     out=results/runs; [ "$policy" = shipped ] || out=results/ablation_runs
@@ -157,11 +151,6 @@ for suite in cabin-v1-test cabin-v1-ood classic; do
     fi
   fi
   for baseline in $learned_baselines; do
-    if [ "$baseline" = ppo_gail_study ]; then
-      [ -f baselines/ppo_gail/checkpoints/ppo_gail_study_cleaning.pt ] &&
-        suite_run --suite "$suite" "${options[@]}" --baseline ppo_gail_study
-      continue
-    fi
     teams=(""); [ "$baseline" = ppo_gail_team ] && teams=("--agents 1" "--agents 2" "--agents 4")
     for policy in $(policies_of "$baseline"); do
       mapfile -t config < <(policy_config "$policy")

@@ -124,7 +124,9 @@ def test_study_training_checkpoints_exports_and_runs_the_pair_cell_by_cell(tmp_p
         # a run stopped early ships its latest checkpoint, labelled with the steps it reached
         (run_dir / "config.json").write_text(json.dumps(tiny(stage, iterations=5).to_dict()))
         ship = ["--run-dir", str(run_dir), "--export-latest", "--ship", "--ship-dir", str(tmp_path)]
+        monkeypatch.chdir(tmp_path)  # --ship keeps the run's records in results/training/
         assert cli.main(["--baseline", "ppo_gail_study", "--stage", stage, *ship]) == 0
+        assert (tmp_path / "results" / "training" / f"ppo_gail_study_{stage}" / "metrics.csv").is_file()
         reached = json.loads((tmp_path / f"ppo_gail_study_{stage}.training.json").read_text())
         assert (reached["iterations"], reached["iterations_planned"], reached["timesteps"]) == (3, 5, 3 * 64)
         assert (tmp_path / f"ppo_gail_study_{stage}.config.json").exists()

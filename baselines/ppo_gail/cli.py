@@ -20,9 +20,10 @@
 configuration (``cabinbench.baselines.ppo_gail.study``), the run lives in
 ``runs/train/ppo_gail_study_<stage>__seed<S>`` and ``--ship`` installs ``ppo_gail_study_<stage>.pt`` with its
 ``.config.json`` and ``.training.json`` (the training summary: iterations and steps reached of those
-planned, time, final metrics) beside it. ``--export-latest`` trains nothing: it exports the run's latest
-checkpoint as its ``policy.pt`` (its training summary says how many of the planned iterations it had), for
-``--ship``.
+planned, time, final metrics) beside it, and keeps the run's records in
+``results/training/ppo_gail_study_<stage>/`` as every baseline's. ``--export-latest`` trains nothing: it
+exports the run's latest checkpoint as its ``policy.pt`` (its training summary says how many of the planned
+iterations it had), for ``--ship``.
 
 ``ppo_gail_team`` is one policy shared by every robot of a team, trained in the batched team env
 (``cabinbench.baselines.ppo_gail.team_training``, whose ``TeamTrainConfig`` gives its defaults:

@@ -93,14 +93,14 @@ class StudyTrainer(Trainer):
         return stage_name(stage)
 
     def ship(self, result: TrainResult, name: str, ship_dir: Path, config: TrainConfig) -> str:
-        """The policy, its ``config.json`` and its training summary (steps, time, final metrics: how far it
-        trained) side by side in ``ship_dir``: the study's networks are no ablation of the leaderboard's."""
-        shipped = ship_dir / f"{name}.pt"
-        copy_policy(result.policy_path, shipped)
+        """As every trainer ships (its records beside the kept seeds', where the learning curves and the
+        training cost read them), and besides the policy its ``config.json`` and training summary (steps,
+        time, final metrics: how far it trained), which the reproduction report reads."""
+        shipped = super().ship(result, name, ship_dir, config)
         copy_file(result.run_dir / CONFIG_FILE, ship_dir / f"{name}.config.json")
         reached = ship_dir / f"{name}.training.json"
         reached.write_text(json.dumps(result.summary, indent=2) + "\n")
-        return f"shipped: {shipped}, its config and {reached.name}"
+        return f"{shipped}; its config and {reached.name} beside it"
 
 
 class TeamTrainer(Trainer):
