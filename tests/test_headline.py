@@ -11,7 +11,7 @@ from scipy import stats as scipy_stats
 
 from cabinbench.agents import Baseline
 from cabinbench.episodes import run_episode
-from cabinbench.leaderboard.headline import headline_score, success_share, training_cost
+from cabinbench.leaderboard.headline import headline_score, staged_training_cost, success_share, training_cost
 from cabinbench.leaderboard.predictors import predictor_finding, predictor_tests
 from cabinbench.metrics import clean_score
 from cabinbench.stats import holm, partial_spearman, reach_time, t_interval
@@ -137,6 +137,21 @@ def test_a_policy_started_from_another_costs_that_ones_training_too(tmp_path):
         training / "looped", 4, 1.0, "results/training/looped/policy.pt"
     )  # a start naming itself ends the chain
     assert training_cost(training, "looped").env_steps == 4.0
+
+
+def test_a_pair_trained_in_stages_costs_both_stages_a_seed(tmp_path):
+    """The study's pair: each seed's cleaning and tracking runs add up, and its seeds are the runs."""
+    training = tmp_path / "training"
+    for stage, steps, seconds in (("cleaning", 60, 6.0), ("tracking", 20, 2.0)):
+        for extra, folder in enumerate([training / f"pair_{stage}", training / f"pair_{stage}" / "seed1"]):
+            folder.mkdir(parents=True)
+            (folder / "metrics.csv").write_text(
+                f"iteration,timesteps,train_time\n1,{steps},{seconds + extra}\n"
+            )
+    cost = staged_training_cost(training, "pair")
+    assert (cost.runs, cost.env_steps, cost.wall_clock_s) == (2, 80.0, 6.5 + 2.5)
+    assert cost.all_runs_wall_clock_s == 6.0 + 7.0 + 2.0 + 3.0
+    assert staged_training_cost(training, "unstaged") is None
 
 
 def test_the_finding_may_say_no():

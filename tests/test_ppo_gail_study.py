@@ -18,7 +18,7 @@ import pytest
 from cabinbench.baselines.boustrophedon import Boustrophedon
 from cabinbench.baselines.ppo_gail import cli, differences, training
 from cabinbench.baselines.ppo_gail.policy import read_policy_file, tracking_or_cleaning
-from cabinbench.baselines.ppo_gail.study import STAGES, study_config
+from cabinbench.baselines.ppo_gail.study import STAGES, stage_name, study_config
 from cabinbench.baselines.ppo_gail.training.loop import expert_demonstrations
 
 from cabinbench.agents import EpisodeContext, load_baseline
@@ -185,40 +185,41 @@ def test_the_committed_differences_table_is_the_generated_one(tmp_path):
     )
 
 
-ISSUE_43_SETTINGS = (
-    "curiosity_form",
-    "curiosity_learning_rate",
-    "gail_form",
-    "gail_use_actions",
-    "gail_gradient_penalty",
-    "gail_learning_rate",
-    "value_per_signal",
-)
-"""The algorithm settings the study's configuration took from ML-Agents after the shipped pair was trained."""
+def installed_pairs() -> dict[int, dict[str, tuple[Path, Path]]]:
+    """Each training seed's pair as scripts/train_study_policies.sh installs it, stage by stage: its
+    ``config.json`` and policy file, seed 0's shipped, every further seed's kept."""
+    shipped = REPOSITORY / "baselines" / "ppo_gail" / "checkpoints"
+    pairs = {
+        0: {
+            stage: (shipped / f"{stage_name(stage)}.config.json", shipped / f"{stage_name(stage)}.pt")
+            for stage in STAGES
+        }
+    }
+    for kept in sorted((REPOSITORY / "results" / "training" / stage_name("cleaning")).glob("seed*")):
+        seed = int(kept.name.removeprefix("seed"))
+        folders = {
+            stage: REPOSITORY / "results" / "training" / stage_name(stage) / kept.name for stage in STAGES
+        }
+        pairs[seed] = {
+            stage: (folder / "config.json", folder / "policy.pt") for stage, folder in folders.items()
+        }
+    return pairs
 
 
-def test_the_shipped_pair_is_the_study_config_of_our_forms_and_records_the_steps_it_reached():
-    """The shipped pair predates ML-Agents' reward forms, the varied demonstrations and the checkpoint chosen
-    on cabin-v1-val: it is the study's configuration with our forms (the algorithm's defaults), every
-    demonstration from the layout's start, env seeds ``seed + i`` (seed 0: the same envs as today's) and
-    the last checkpoints, unvalidated, until it is retrained with the current one."""
+def test_every_installed_pair_is_the_study_config_of_its_seed_trained_to_all_its_steps():
+    """Three training seeds, each pair the study's configuration of its seed (ML-Agents' reward signals and
+    critic, varied demonstrations, the cleaning checkpoint chosen on cabin-v1-val), run to its planned
+    steps; the shipped pair's summary beside it is the one its policy file records."""
+    pairs = installed_pairs()
+    assert sorted(pairs) == [0, 1, 2]
+    for seed, pair in pairs.items():
+        for stage, (config_file, policy_file) in pair.items():
+            config = training.TrainConfig.from_dict(json.loads(config_file.read_text()))
+            assert config.to_dict() == study_config(stage, seed=seed).to_dict()
+            reached = read_policy_file(policy_file)["training"]
+            assert reached["iterations"] == reached["iterations_planned"] == config.iterations
+            assert reached["timesteps"] == config.iterations * 2048
     checkpoints = REPOSITORY / "baselines" / "ppo_gail" / "checkpoints"
     for stage in STAGES:
-        name = f"ppo_gail_study_{stage}"
-        config = training.TrainConfig.from_dict(json.loads((checkpoints / f"{name}.config.json").read_text()))
-        algorithm = study_config(stage).algorithm
-        ours = {key: value for key, value in algorithm.items() if key not in ISSUE_43_SETTINGS}
-        former = study_config(
-            stage,
-            algorithm=ours,
-            demo_random_start=False,
-            demo_action_noise=0.0,
-            disjoint_env_seeds=False,
-            validation_episodes=0,
-            export="last",
-        )
-        assert config.to_dict() == former.to_dict()
-        reached = json.loads((checkpoints / f"{name}.training.json").read_text())
-        assert 0 < reached["iterations"] <= reached["iterations_planned"] == config.iterations
-        assert reached["timesteps"] == reached["iterations"] * 2048
-        assert read_policy_file(checkpoints / f"{name}.pt")["training"] == reached
+        summary = json.loads((checkpoints / f"{stage_name(stage)}.training.json").read_text())
+        assert summary == read_policy_file(checkpoints / f"{stage_name(stage)}.pt")["training"]

@@ -139,17 +139,22 @@ def _run_cost(run: Path) -> tuple[float, float]:
     return float(last["timesteps"]), float(last["train_time"])
 
 
-def staged_training_cost(checkpoints: Path, baseline: str) -> TrainingCost | None:
-    """The summed cost of a baseline trained in stages, one ``.training.json`` per stage."""
-    stages = sorted(checkpoints.glob(f"{baseline}_*.training.json"))
+def staged_training_cost(training: Path, baseline: str) -> TrainingCost | None:
+    """The cost of a baseline trained in stages, each stage's runs in ``<training>/<baseline>_<stage>/`` (the
+    study's pair: a seed's cleaning and tracking networks): the stages' costs summed, a run a seed's pair."""
+    folders = sorted(folder.name for folder in training.glob(f"{baseline}_*") if folder.is_dir())
+    stages = [cost for name in folders if (cost := training_cost(training, name))]
     if not stages:
         return None
-    records = [json.loads(path.read_text(encoding="utf-8")) for path in stages]
-    seconds = float(sum(r["train_time_s"] for r in records))
-    return TrainingCost(float(sum(r["timesteps"] for r in records)), seconds, 1, seconds)
+    return TrainingCost(
+        sum(stage.env_steps for stage in stages),
+        sum(stage.wall_clock_s for stage in stages),
+        min(stage.runs for stage in stages),
+        sum(stage.all_runs_wall_clock_s for stage in stages),
+    )
 
 
-def headline_rows(records: pd.DataFrame, training: Path, checkpoints: Path = CHECKPOINTS) -> list[dict]:
+def headline_rows(records: pd.DataFrame, training: Path) -> list[dict]:
     """One row per (baseline, K) with records on a headline suite or layout, best test score first."""
     records = records.assign(policy=records["baseline_config"].map(policy_of))
     methods = records.loc[
@@ -171,7 +176,7 @@ def headline_rows(records: pd.DataFrame, training: Path, checkpoints: Path = CHE
         row["full_cabin_coverage"] = float(cabin["coverage"].mean()) if len(cabin) else math.nan
         time = cabin["makespan"] if n_agents > 1 and "makespan" in cabin else cabin["time"]
         row["full_cabin_time"] = float(time.mean()) if len(cabin) else math.nan
-        row["cost"] = training_cost(training, baseline) or staged_training_cost(checkpoints, baseline)
+        row["cost"] = training_cost(training, baseline) or staged_training_cost(training, baseline)
         row["seeds"] = max(row[f"{suite} seeds"] for suite in HEADLINE_SUITES) or cabin["policy"].nunique()
         rows.append(row)
     return sorted(rows, key=_rank)
