@@ -10,8 +10,9 @@
 # checkpoints), as scripts/train_policies.sh's are.
 # Once every run of both networks has finished, seed 0 is installed with --ship
 # (baselines/ppo_gail/checkpoints/ppo_gail_study_<stage>.pt, its records in results/training/ppo_gail_study_<stage>/)
-# and seeds 1 and 2 with --keep (results/training/ppo_gail_study_<stage>/seed<S>/): not before, so that the pair installed is always the pair
-# its committed records were played with, until bash scripts/make_results.sh learned ppo_gail_study plays them.
+# and seeds 1 and 2 with --keep (results/training/ppo_gail_study_<stage>/seed<S>/): not before, so that the pair
+# installed is always the pair its committed records were played with, until bash scripts/make_results.sh learned
+# ppo_gail_study plays them.
 # Usage: [STAGES="cleaning tracking"] bash scripts/train_study_policies.sh [SEED ...]   (from the repository root;
 # default seeds 0 1 2).
 set -euo pipefail
