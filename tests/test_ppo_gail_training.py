@@ -557,13 +557,17 @@ def test_an_algorithm_that_leaves_out_a_default_setting_is_told_before_training(
 def test_committed_training_configs_read_back_as_they_were_written():
     """``config.json`` is the ``to_dict()`` of the baseline's trainer's config class (``TRAINERS``), which
     ``from_dict`` reads back (a resumed run, the leaderboard's reward-signal columns): every committed one
-    (``results/training/<baseline>/[seed<S>/]config.json``) round-trips to the same bytes, an rsl-rl
-    learner's with the ablation's ``use_curiosity`` and ``use_gail``."""
+    (``results/training/<name>/[seed<S>/]config.json``, the study's a folder a stage) round-trips to the same
+    bytes, an rsl-rl learner's with the ablation's ``use_curiosity`` and ``use_gail``."""
     paths = sorted(COMMITTED_TRAINING.rglob("config.json"))
     assert len(paths) >= 4
     for path in paths:
         shipped = path.relative_to(COMMITTED_TRAINING).parts[0]
-        config_class = TRAINERS[shipped.removesuffix("_suite")].config_class  # ppo_gail_suite: ppo_gail's
+        # ppo_gail_suite: ppo_gail's; ppo_gail_study_<stage>: the study's
+        baseline = (
+            "ppo_gail_study" if shipped.startswith("ppo_gail_study_") else shipped.removesuffix("_suite")
+        )
+        config_class = TRAINERS[baseline].config_class
         text = path.read_text()
         assert json.dumps(config_class.from_dict(json.loads(text)).to_dict(), indent=2) + "\n" == text, path
         if config_class is not ImitationConfig:
