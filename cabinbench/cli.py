@@ -3,7 +3,8 @@
 A command builds its parser with :class:`ArgumentParser` (a bad argument: one line, no usage
 block), checks what it can in the argument types below (before any work starts), and wraps its
 ``main`` in :func:`user_errors`, which prints a :class:`~cabinbench.errors.UserError` as one line (and
-Ctrl-C as ``interrupted``, exit status 130, where the command has nothing better to say).
+Ctrl-C as ``interrupted``, exit status 130, where the command has nothing better to say; a Ctrl-C
+that arrives inside the simulation is raised as it returns: it would be lost there).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from cabinbench.errors import EXIT_INTERRUPTED, EXIT_USAGE, UsageError, UserError
+from cabinbench.sim.interrupts import reliable_ctrl_c
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -31,12 +33,14 @@ class ArgumentParser(argparse.ArgumentParser):
 
 def user_errors(main: Callable[[list[str] | None], int]) -> Callable[[list[str] | None], int]:
     """``main`` that prints a user error as one line and returns :data:`EXIT_USAGE`, and a Ctrl-C
-    that ``main`` does not handle itself as ``interrupted`` (:data:`EXIT_INTERRUPTED`)."""
+    that ``main`` does not handle itself as ``interrupted`` (:data:`EXIT_INTERRUPTED`). Ctrl-C is
+    raised where Python can pass it on (:mod:`cabinbench.sim.interrupts`), so it is never lost."""
 
     @functools.wraps(main)
     def checked(argv: list[str] | None = None) -> int:
         try:
-            return main(argv)
+            with reliable_ctrl_c():
+                return main(argv)
         except UserError as error:
             print(f"error: {error}", file=sys.stderr)
             return EXIT_USAGE

@@ -18,6 +18,7 @@ import pymunk
 from pymunk._chipmunk import lib as chipmunk
 
 from cabinbench.layouts.model import Layout
+from cabinbench.sim.interrupts import shielded
 
 TIME_STEP = 0.1  # seconds of simulated time per env step
 PHYSICS_SUBSTEPS = 4  # 1.25 cm of travel per substep: a first contact sinks in at most that far
@@ -141,6 +142,7 @@ class Physics:
         return _replay, (self.layout, self.start_poses, self.commands, self.bound_changes)
 
 
+@shielded
 def _replay(layout: Layout, start_poses: np.ndarray, commands: array.array, bound_changes: list) -> Physics:
     """A :class:`Physics` that has been given ``commands`` and ``bound_changes`` since its reset to
     ``start_poses``, as the original was: the same space, cached contacts included."""

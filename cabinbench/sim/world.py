@@ -22,6 +22,7 @@ from cabinbench.layouts.fields import RESOLUTION
 from cabinbench.layouts.model import Layout
 from cabinbench.sim.coverage import CoveragePatch, CoverageRaster, write_coverage_patch
 from cabinbench.sim.events import RobotEvents, StepEvents
+from cabinbench.sim.interrupts import shielded
 from cabinbench.sim.lidar import LidarConfig
 from cabinbench.sim.observation import observation_layout, observation_size, write_observation
 from cabinbench.sim.physics import TIME_STEP, Physics
@@ -43,8 +44,10 @@ class World:
     """K disc robots on one layout. Construct once; call :meth:`reset` before stepping.
 
     A copy (``copy.deepcopy``, pickle) continues exactly as the original: its physics replays the
-    episode's commands (:mod:`cabinbench.sim.physics`)."""
+    episode's commands (:mod:`cabinbench.sim.physics`). Its methods are :func:`shielded`: a Ctrl-C
+    arriving inside one is raised as it returns."""
 
+    @shielded
     def __init__(
         self,
         layout: Layout,
@@ -79,6 +82,7 @@ class World:
         self._no_noise = np.zeros(0)
         self.physics = Physics(layout)
 
+    @shielded
     def reset(self, rng: np.random.Generator, poses: np.ndarray | None = None) -> None:
         """Start an episode with the robots at ``poses`` ((K, 3): x, y, heading; default ``start_poses``)."""
         self.rng = rng
@@ -90,6 +94,7 @@ class World:
         for x, y, _ in self._poses.tolist():
             self.raster.stamp(x, y, math.nan, math.nan)  # the start footprint is covered, but earns no reward
 
+    @shielded
     def step(self, actions: np.ndarray) -> StepEvents:
         """Advance one env step. ``actions`` is (K, 2) in [-1, 1]: (linear, angular)."""
         robot, physics = self.layout.robot, self.physics
@@ -118,6 +123,7 @@ class World:
         self.cell_protocol.update(events, self._poses)
         return events
 
+    @shielded
     def observe(self, index: int, out: np.ndarray | None = None) -> np.ndarray:
         """Local observation of robot ``index``, laid out as ``self.observation_layout``
         (:mod:`cabinbench.sim.observation`). Written into ``out`` (float32, ``observation_size``) when
