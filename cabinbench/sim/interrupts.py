@@ -31,8 +31,8 @@ from typing import TypeVar
 Method = TypeVar("Method", bound=Callable)
 
 AGAIN_SECONDS = 0.01  # how soon a Ctrl-C that could not be raised is sent again
-# the folders of the code that must not be stopped half way (found, not imported: the commands that
-# never simulate need not load them)
+# the folders of the code that must not be stopped half way (found, not imported: a command that
+# never simulates does not load pymunk)
 UNSTOPPABLE = tuple(
     importlib.util.find_spec(package).submodule_search_locations[0] for package in ("pymunk", "numba")
 )
